@@ -1,0 +1,49 @@
+"""Headless LIBERO environments for base tasks, with both cameras at a chosen resolution."""
+from __future__ import annotations
+
+import logging
+from contextlib import contextmanager
+from typing import Iterator
+
+import numpy as np
+
+from . import libero_bridge
+from .errors import InvalidParameterError
+from .init_states import read_init_states
+from .tasks import TaskRecord
+
+log = logging.getLogger(__name__)
+
+CAMERAS = ("agentview", "robot0_eye_in_hand")
+DEFAULT_RESOLUTION = 256
+NOOP_ACTION = np.array([0, 0, 0, 0, 0, 0, -1], dtype=np.float64)
+
+
+def make_env(task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, bddl_file: str | None = None, **kwargs):
+    """LIBERO's own `OffScreenRenderEnv` for a task (or another BDDL file of the same task)."""
+    if not isinstance(resolution, int) or not 16 <= resolution <= 2048:
+        raise InvalidParameterError(f"resolution must be an integer in 16..2048, got {resolution!r}")
+    envs = libero_bridge.libero_envs()
+    bddl = bddl_file or str(libero_bridge.bddl_path(task.suite, task.name))
+    log.info("building %s (%s) at %dx%d", task.key, bddl, resolution, resolution)
+    return envs.OffScreenRenderEnv(
+        bddl_file_name=bddl, camera_heights=resolution, camera_widths=resolution, camera_names=list(CAMERAS), **kwargs
+    )
+
+
+@contextmanager
+def task_env(task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, **kwargs) -> Iterator:
+    env = make_env(task, resolution, **kwargs)
+    try:
+        yield env
+    finally:
+        env.close()
+
+
+def libero_init_states(task: TaskRecord) -> np.ndarray:
+    return read_init_states(libero_bridge.init_state_path(task.suite, task.name))
+
+
+def views_side_by_side(obs: dict) -> np.ndarray:
+    """Both camera images upright (raw frames are bottom-up), third-person left, wrist right."""
+    return np.concatenate([obs[f"{cam}_image"][::-1] for cam in CAMERAS], axis=1)
