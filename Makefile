@@ -20,6 +20,9 @@ $(STAMP): pyproject.toml Makefile
 	$(VENV)/bin/pip install --quiet -e '.[test,plots]'
 	# LIBERO's simulation code without its training stack (torch, wandb, transformers).
 	$(VENV)/bin/pip install --quiet --no-deps $(HF_LIBERO)
+	# robosuite's own recommended step (scripts/setup_macros.py, which prompts): a private macros
+	# file equal to the defaults, so robosuite stops warning on every import.
+	$(VENV)/bin/python scripts/robosuite_private_macros.py
 	@touch $(STAMP)
 
 # The main job: rebuild the catalog in memory and check it byte for byte against the

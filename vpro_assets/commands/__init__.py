@@ -1,0 +1,1 @@
+"""Subcommands of `vpro`, one module per concept."""
