@@ -133,7 +133,7 @@ def load_catalog(path: Path) -> dict:
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
-        truncated = " (the file looks truncated)" if exc.pos >= len(text.rstrip()) - 1 else ""
+        truncated = "" if text.rstrip().endswith("}") else " (the file looks truncated: it does not end with '}')"
         raise CatalogError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}{truncated}") from None
     if not isinstance(data, dict) or not isinstance(data.get("header"), dict):
         raise CatalogError(f"{path}: not a catalog (expected a JSON object with a 'header')")
