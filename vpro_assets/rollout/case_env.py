@@ -1,0 +1,191 @@
+"""`env_for_case(case, trial, ...)`: the one place an episode's environment comes from.
+
+- Normal cases: LIBERO's own env of the base task, initial state = LIBERO's row for the trial.
+- Observation cases (masking, corruption, staleness, ...): the same base env, seen through the
+  perturbation layer (`vpro_assets.perturb`, issue 3) when that layer is in the checkout. Without
+  it the case is *unavailable* (a recorded error), never silently run unperturbed.
+- Scene cases (distractors, preconditions, ambiguity, geometry): the generated BDDL and frozen
+  initial states of the built case (`vpro build`, issue 4); a case whose artifacts are not built is
+  unavailable with the message "not built; run vpro build".
+
+An unavailable case raises CaseUnavailableError (recorded once, not retried); anything the
+simulator raises becomes SimulatorError (an infrastructure error, retried).
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import logging
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Mapping, Optional
+
+import numpy as np
+
+from .. import libero_bridge
+from ..env import CAMERAS, libero_init_states, make_env
+from ..errors import VProError
+from ..init_states import read_init_states
+from ..tasks import get_task
+from .policy import SimulatorError
+
+log = logging.getLogger(__name__)
+
+
+class CaseUnavailableError(VProError):
+    """The case cannot run in this checkout (scene not built, perturbation layer missing)."""
+
+
+def is_normal(case: Mapping) -> bool:
+    return not case.get("setting")
+
+
+@lru_cache(maxsize=64)
+def sha256_file(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+@lru_cache(maxsize=8)
+def _init_states_cached(path: str) -> np.ndarray:
+    return read_init_states(path)
+
+
+def perturb_layer():
+    """The perturbation module if it is in the checkout and offers a wrapper, else None."""
+    if importlib.util.find_spec("vpro_assets.perturb") is None:
+        return None
+    module = importlib.import_module("vpro_assets.perturb")
+    return module if any(hasattr(module, n) for n in ("wrap_env", "PerturbedEnv", "wrap_case_env")) else None
+
+
+def _make_wrapper(module, env, case: Mapping, trial: int, resolution: int):
+    for name in ("wrap_case_env", "wrap_env"):
+        if hasattr(module, name):
+            return getattr(module, name)(env, case, trial=trial)
+    return module.PerturbedEnv(env, case, trial=trial)
+
+
+def scene_artifacts(case: Mapping) -> dict:
+    """The built scene of a scene case: {'bddl': path, 'init_states': path, ...} or CaseUnavailableError."""
+    found = None
+    if importlib.util.find_spec("generators") is not None:
+        generators = importlib.import_module("generators")
+        for name in ("built_case", "case_artifacts", "find_built_case"):
+            if hasattr(generators, name):
+                try:
+                    found = getattr(generators, name)(case["id"])
+                except (VProError, FileNotFoundError, KeyError):
+                    found = None
+                break
+    if found:
+        found = dict(found)
+        bddl, init = found.get("bddl"), found.get("init_states")
+        if bddl and init and Path(bddl).is_file() and Path(init).is_file():
+            return found
+    raise CaseUnavailableError(f"case {case['id']}: scene not built; run vpro build --select {case['id']}")
+
+
+class CaseEnv:
+    """One episode's environment: LIBERO env + optional perturbation wrapper + initial state."""
+
+    def __init__(self, case: Mapping, trial: int, env, init_state: np.ndarray, wrapper=None,
+                 artifacts: Optional[dict] = None, scene: Optional[dict] = None):
+        self.case, self.trial, self.env, self.wrapper = case, trial, env, wrapper
+        self.init_state = init_state
+        self.artifact_hashes = artifacts or {}
+        self.scene = scene or {}
+        self.task = get_task(case["task"])
+
+    @property
+    def sim(self):
+        return self.env.sim
+
+    def reset(self) -> dict:
+        try:
+            self.env.reset()
+            obs = self.env.set_init_state(self.init_state)
+        except Exception as exc:
+            raise SimulatorError(f"case {self.case['id']} trial {self.trial}: reset failed ({type(exc).__name__}: {exc})") from exc
+        if self.wrapper is not None and hasattr(self.wrapper, "on_reset"):
+            self.wrapper.on_reset(obs)
+        return obs
+
+    def step(self, action: np.ndarray) -> tuple[dict, bool]:
+        try:
+            obs, _reward, done, _info = self.env.step(np.asarray(action, dtype=np.float64))
+        except Exception as exc:
+            raise SimulatorError(f"case {self.case['id']} trial {self.trial}: step failed ({type(exc).__name__}: {exc})") from exc
+        if self.wrapper is not None and hasattr(self.wrapper, "on_step"):
+            self.wrapper.on_step(obs)
+        return obs, bool(done)
+
+    def policy_images(self, obs: Mapping, step: int) -> dict[str, Optional[np.ndarray]]:
+        """The views the policy receives at this step (raw frame; None = unavailable view)."""
+        if self.wrapper is not None and hasattr(self.wrapper, "policy_images"):
+            return dict(self.wrapper.policy_images(obs, step))
+        return {cam: obs[f"{cam}_image"] for cam in CAMERAS}
+
+    def feed_predicted(self, frames) -> None:
+        if self.wrapper is not None and hasattr(self.wrapper, "feed_predicted"):
+            self.wrapper.feed_predicted(frames)
+
+    def phase_timeline(self) -> Optional[list]:
+        if self.wrapper is not None and hasattr(self.wrapper, "phase_timeline"):
+            return self.wrapper.phase_timeline()
+        return None
+
+    def success(self) -> bool:
+        return bool(self.env.check_success())
+
+    def close(self) -> None:
+        try:
+            self.env.close()
+        except Exception:  # a half-built env may fail to close; nothing to keep
+            log.debug("env close failed", exc_info=True)
+
+
+def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs: Optional[dict] = None) -> CaseEnv:
+    """Build the environment of one trial of one case (see the module docstring)."""
+    task = get_task(case["task"])
+    rows = case.get("init_states", {}).get("rows") or list(range(10))
+    if not 0 <= trial < len(rows):
+        raise VProError(f"case {case['id']}: trial {trial} out of range (0..{len(rows) - 1})")
+    level = "normal" if is_normal(case) else case.get("level")
+    scene: dict[str, Any] = {}
+    wrapper_module = None
+    if level == "scene":
+        scene = scene_artifacts(case)
+        bddl, init_path = str(scene["bddl"]), str(scene["init_states"])
+        states = _init_states_cached(init_path) if not init_path.endswith(".npy") else np.load(init_path)
+    else:
+        if level == "observation":
+            wrapper_module = perturb_layer()
+            if wrapper_module is None:
+                raise CaseUnavailableError(f"case {case['id']}: the observation perturbation layer "
+                                           "(vpro_assets.perturb) is not in this checkout")
+        bddl = str(libero_bridge.bddl_path(task.suite, task.name))
+        init_path = str(libero_bridge.init_state_path(task.suite, task.name))
+        states = _init_states_cached(init_path)
+    row = rows[trial]
+    if not 0 <= row < len(states):
+        raise VProError(f"case {case['id']}: initial-state row {row} out of range ({len(states)} rows in {init_path})")
+    hashes = {"bddl": sha256_file(bddl), "init_states": sha256_file(init_path), "init_row": row}
+    try:
+        env = make_env(task, resolution, bddl_file=bddl if level == "scene" else None, **(env_kwargs or {}))
+    except VProError:
+        raise
+    except Exception as exc:
+        raise SimulatorError(f"case {case['id']}: building the env failed ({type(exc).__name__}: {exc})") from exc
+    wrapper = None
+    if wrapper_module is not None:
+        try:
+            wrapper = _make_wrapper(wrapper_module, env, case, trial, resolution)
+        except Exception:
+            env.close()
+            raise
+    return CaseEnv(case, trial, env, states[row], wrapper, hashes, scene)

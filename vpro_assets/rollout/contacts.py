@@ -1,0 +1,72 @@
+"""Gripper contact composition of an episode, read from MuJoCo's contact list.
+
+Each step, every active contact is checked for a gripper geom (robosuite names them `gripper0_*`)
+against a geom of the target object or of a distractor (geoms of bodies named `<instance>_*`, as
+LIBERO names an object's bodies). An episode is then `target_only`, `distractor_only`, `both` or
+`neither`, with the first step of each kind of contact. Cases without a distractor can only be
+`target_only` or `neither`.
+"""
+from __future__ import annotations
+
+from typing import Iterable, Optional
+
+import numpy as np
+
+COMPOSITIONS = ("target_only", "distractor_only", "both", "neither")
+GRIPPER_PREFIX = "gripper0_"
+
+
+def _geoms_of(model, instances: Iterable[str]) -> set[int]:
+    prefixes = tuple(f"{name}_" for name in instances if name)
+    if not prefixes:
+        return set()
+    out = set()
+    for gid in range(model.ngeom):
+        body = model.body_id2name(int(model.geom_bodyid[gid])) or ""
+        # An object's bodies are children of its `<instance>_main` body; walk to the top-level body.
+        bid = int(model.geom_bodyid[gid])
+        while bid != 0 and not body.startswith(prefixes):
+            bid = int(model.body_parentid[bid])
+            body = model.body_id2name(bid) or ""
+        if body.startswith(prefixes):
+            out.add(gid)
+    return out
+
+
+class ContactTracker:
+    def __init__(self, sim, target: Optional[str], distractors: Iterable[str] = ()):
+        model = sim.model
+        self.sim = sim
+        self.gripper = {g for g in range(model.ngeom) if (model.geom_id2name(g) or "").startswith(GRIPPER_PREFIX)}
+        self.target = _geoms_of(model, [target] if target else [])
+        self.distractor = _geoms_of(model, distractors) - self.target
+        self.first_target: Optional[int] = None
+        self.first_distractor: Optional[int] = None
+
+    def update(self, step: int) -> None:
+        data = self.sim.data
+        n = int(data.ncon)
+        if n == 0:
+            return
+        g1 = np.fromiter((data.contact[i].geom1 for i in range(n)), dtype=np.int64, count=n)
+        g2 = np.fromiter((data.contact[i].geom2 for i in range(n)), dtype=np.int64, count=n)
+        for a, b in zip(g1.tolist(), g2.tolist()):
+            if a in self.gripper:
+                other = b
+            elif b in self.gripper:
+                other = a
+            else:
+                continue
+            if self.first_target is None and other in self.target:
+                self.first_target = step
+            if self.first_distractor is None and other in self.distractor:
+                self.first_distractor = step
+
+    @property
+    def composition(self) -> str:
+        t, d = self.first_target is not None, self.first_distractor is not None
+        return "both" if t and d else "target_only" if t else "distractor_only" if d else "neither"
+
+    def summary(self) -> dict:
+        return {"composition": self.composition, "first_target_step": self.first_target,
+                "first_distractor_step": self.first_distractor, "distractor_tracked": bool(self.distractor)}

@@ -1,0 +1,134 @@
+"""One closed-loop episode: build the case's env, wait, then observe -> act until success or the
+step limit, as openpi's and OpenVLA-OFT's LIBERO scripts do.
+
+LIBERO's conventions: 10 no-op wait steps first (objects settle; not counted in `steps`), then at
+most 220 / 280 / 300 / 520 policy steps for libero_spatial / object / goal / 10. A chunk of actions
+is executed up to the policy's `replan_steps` before the next query. The result is a plain dict,
+the fields of one row of the results store.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..env import CAMERAS, NOOP_ACTION
+from .case_env import CaseEnv, env_for_case
+from .contacts import ContactTracker
+from .policy import EpisodeInfo, InfrastructureError, Observation, validate_actions
+
+log = logging.getLogger(__name__)
+
+MAX_STEPS = {"libero_spatial": 220, "libero_object": 280, "libero_goal": 300, "libero_10": 520}
+WAIT_STEPS = 10
+
+
+@dataclass(frozen=True)
+class EpisodeSettings:
+    resolution: int = 256
+    wait_steps: int = WAIT_STEPS
+    max_steps: dict = field(default_factory=lambda: dict(MAX_STEPS))  # per suite
+    max_steps_override: Optional[int] = None  # one limit for every suite
+    video_dir: Optional[str] = None
+
+    def limit(self, suite: str) -> int:
+        return self.max_steps_override if self.max_steps_override is not None else self.max_steps.get(suite, 520)
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+
+def _distractors(cenv: CaseEnv) -> list[str]:
+    names = cenv.scene.get("distractors") or cenv.case.get("params", {}).get("distractor_instances") or []
+    return [names] if isinstance(names, str) else list(names)
+
+
+def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> dict:
+    """Run one episode and return its row fields. Raises InfrastructureError or CaseUnavailableError."""
+    started = time.time()
+    seed = int(case["trial_seeds"][trial])
+    cenv = env_for_case(case, trial, resolution=settings.resolution)
+    frames: list[np.ndarray] = []
+    try:
+        episode = EpisodeInfo(instruction=cenv.task.language, case_id=case["id"], trial=trial, seed=seed,
+                              suite=case["suite"], task=case["task"])
+        obs = cenv.reset()
+        try:
+            policy.reset(episode)
+        except InfrastructureError:
+            raise
+        except Exception as exc:
+            raise InfrastructureError(f"policy {policy.policy_id}: reset raised {type(exc).__name__}: {exc}") from exc
+        if hasattr(policy, "bind_env"):
+            policy.bind_env(cenv)
+        contacts = ContactTracker(cenv.sim, cenv.task.target, _distractors(cenv))
+        t = 0
+        for _ in range(settings.wait_steps):
+            obs, _ = cenv.step(NOOP_ACTION)
+            t += 1
+        limit = settings.limit(case["suite"])
+        plan: deque = deque()
+        steps, success = 0, False
+        while steps < limit:
+            images = None
+            if not plan or settings.video_dir:
+                images = cenv.policy_images(obs, t)
+            if not plan:
+                view = Observation.from_libero(obs, t, episode.instruction, images=images)
+                try:
+                    out = policy.act(view)
+                except InfrastructureError:
+                    raise
+                except Exception as exc:
+                    raise InfrastructureError(f"policy {policy.policy_id}: act raised {type(exc).__name__}: {exc}") from exc
+                actions = validate_actions(out.actions, where=f"policy {policy.policy_id}")
+                n = policy.replan_steps or len(actions)
+                plan.extend(actions[:n])
+                if out.predicted_frames is not None:
+                    cenv.feed_predicted(out.predicted_frames)
+            if settings.video_dir:
+                frames.append(_video_frame(obs, images))
+            obs, done = cenv.step(plan.popleft())
+            t += 1
+            steps += 1
+            contacts.update(t)
+            if done and cenv.success():
+                success = True
+                break
+        timeline = cenv.phase_timeline()
+        video = _write_video(settings.video_dir, case["id"], trial, frames) if settings.video_dir else None
+        return {"success": success, "steps": steps, "seed": seed, "phase_timeline": timeline,
+                "contact": contacts.summary(), "artifact_hashes": cenv.artifact_hashes,
+                "wall_time": time.time() - started, "video": video}
+    finally:
+        cenv.close()
+
+
+def _video_frame(obs: dict, images: Optional[dict]) -> np.ndarray:
+    """Clean views (left) and the policy's views (right), upright."""
+    clean = [obs[f"{cam}_image"] for cam in CAMERAS]
+    seen = [(images or {}).get(cam) for cam in CAMERAS]
+    seen = [s if s is not None else np.zeros_like(c) for s, c in zip(seen, clean)]
+    return np.concatenate([np.asarray(x)[::-1] for x in clean + seen], axis=1).astype(np.uint8)
+
+
+def _write_video(video_dir: str, case_id: str, trial: int, frames: list) -> Optional[str]:
+    import cv2
+
+    if not frames:
+        return None
+    path = Path(video_dir) / f"{case_id.replace('/', '__')}__t{trial}.mp4"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp.mp4")
+    h, w = frames[0].shape[:2]
+    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), 20, (w, h))
+    for f in frames:
+        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    writer.release()
+    tmp.replace(path)
+    return str(path)

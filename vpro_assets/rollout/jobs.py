@@ -1,0 +1,106 @@
+"""One unit of work, `execute_job(job) -> row`, run the same way by every backend.
+
+A job is a JSON-able dict (case record, trial, run id, policy spec and options, episode settings,
+retry budget). The worker keeps one policy per spec (one websocket connection per worker), runs the
+episode, and turns every outcome into a row:
+- `ok`: the episode ran; `success` is the task's verdict;
+- `unavailable`: the case cannot run in this checkout (not built, layer missing); not retried;
+- `error`: an infrastructure error (server down or slow, NaN or misshapen actions, simulator
+  exception) that persisted through `retries` further attempts; never a policy failure.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import os
+import socket
+import time
+import traceback
+
+from ..errors import VProError
+from .case_env import CaseUnavailableError
+from .episode import EpisodeSettings, run_episode
+from .policy import InfrastructureError
+from .spec import make_policy, policy_label
+from .store import utc_now
+
+log = logging.getLogger(__name__)
+
+_POLICIES: dict[str, object] = {}
+
+
+def _policy(spec: str, options: dict):
+    key = spec + "|" + json.dumps(options, sort_keys=True)
+    if key not in _POLICIES:
+        _POLICIES[key] = make_policy(spec, options)
+    return _POLICIES[key]
+
+
+def _drop_policy(spec: str, options: dict) -> None:
+    policy = _POLICIES.pop(spec + "|" + json.dumps(options, sort_keys=True), None)
+    if policy is not None:
+        try:
+            policy.close()
+        except Exception:
+            log.debug("policy close failed", exc_info=True)
+
+
+def make_job(run_id: str, case: dict, trial: int, policy_spec: str, policy_options: dict,
+             settings: EpisodeSettings, retries: int, retry_delay: float) -> dict:
+    return {"run_id": run_id, "case": case, "trial": trial, "policy_spec": policy_spec,
+            "policy_options": dict(policy_options), "settings": settings.to_json(), "retries": retries,
+            "retry_delay": retry_delay, "prior_attempts": 0}
+
+
+def base_row(job: dict) -> dict:
+    case = job["case"]
+    normal = not case.get("setting")
+    return {"run_id": job["run_id"], "case_id": case["id"], "trial": job["trial"],
+            "seed": int(case["trial_seeds"][job["trial"]]),
+            "policy_id": policy_label(job["policy_spec"], job["policy_options"]),
+            "suite": case["suite"], "task": case["task"],
+            "dimension": None if normal else case.get("dimension"),
+            "category": "normal" if normal else case.get("category"), "setting": case.get("setting"),
+            "indicator": None if normal else case.get("indicator"), "level": "normal" if normal else case.get("level"),
+            "worker": f"{socket.gethostname()}:{os.getpid()}"}
+
+
+def execute_job(job: dict) -> dict:
+    settings = EpisodeSettings(**job["settings"])
+    row = base_row(job)
+    attempts = job.get("prior_attempts", 0)
+    budget = 1 + max(0, int(job["retries"]))
+    last_error, kind = None, None
+    for attempt in range(budget):
+        attempts += 1
+        try:
+            policy = _policy(job["policy_spec"], job["policy_options"])
+            result = run_episode(job["case"], job["trial"], policy, settings)
+        except CaseUnavailableError as exc:
+            row.update(status="unavailable", error=str(exc), error_kind=type(exc).__name__)
+            break
+        except InfrastructureError as exc:
+            last_error, kind = str(exc), type(exc).__name__
+            log.warning("%s trial %d attempt %d/%d: %s", row["case_id"], row["trial"], attempt + 1, budget, exc)
+            _drop_policy(job["policy_spec"], job["policy_options"])
+            if attempt + 1 < budget and job.get("retry_delay"):
+                time.sleep(float(job["retry_delay"]) * (attempt + 1))
+            continue
+        except VProError as exc:  # a configuration problem: retrying will not help
+            row.update(status="error", error=str(exc), error_kind=type(exc).__name__)
+            break
+        except Exception as exc:  # a bug or an unexpected failure: record it with its origin
+            last_error = f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3).strip().splitlines()[-3:]}"
+            kind = "UnexpectedError"
+            _drop_policy(job["policy_spec"], job["policy_options"])
+            continue
+        row.update(status="ok", success=bool(result["success"]), steps=result["steps"],
+                   phase_timeline=result["phase_timeline"], contact=result["contact"]["composition"],
+                   contact_detail=result["contact"], wall_time=result["wall_time"],
+                   artifact_hashes=result["artifact_hashes"], video=result["video"], error=None, error_kind=None)
+        break
+    else:
+        row.update(status="error", error=f"{last_error} (after {budget} attempt(s))", error_kind=kind)
+    row["attempts"] = attempts
+    row["finished_at"] = utc_now()
+    return row

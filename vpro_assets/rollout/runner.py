@@ -1,0 +1,101 @@
+"""`vpro eval`: plan the (case, trial) episodes of a run, dispatch them, record every row.
+
+A run is identified by its run id and fixed at creation: policy spec, episode settings, selection
+and trial count. `resume=True` continues a run: episodes with a row are skipped (and episodes that
+ended in an infrastructure error are attempted again when `retry_errors`), so a run killed with
+kill -9 ends, after resuming, with the same set of rows as an uninterrupted one.
+"""
+from __future__ import annotations
+
+import hashlib
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Optional, Sequence
+
+from .. import paths
+from ..catalog import library_versions
+from ..errors import VProError
+from .backends import run_jobs
+from .episode import EpisodeSettings
+from .jobs import make_job
+from .spec import make_policy, policy_label
+from .store import ResultsStore
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class RunSummary:
+    run_id: str
+    planned: int
+    skipped: int
+    recorded: int
+    counts: dict
+    elapsed: float
+
+
+def new_run_id(policy_id: str) -> str:
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in policy_id)[:40]
+    return f"{time.strftime('%Y%m%dT%H%M%SZ', time.gmtime())}-{safe}"
+
+
+def _catalog_sha(path: Optional[Path]) -> Optional[str]:
+    if path is None or not Path(path).is_file():
+        return None
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def run_eval(cases: Sequence[dict], *, results: Path | str, policy_spec: str, policy_options: Optional[dict] = None,
+             settings: Optional[EpisodeSettings] = None, trials: int = 10, run_id: Optional[str] = None,
+             resume: bool = False, retry_errors: bool = False, backend: str = "local", workers: int = 1,
+             address: Optional[str] = None, retries: int = 2, retry_delay: float = 2.0,
+             selection: Sequence[str] = (), on_row: Optional[Callable[[dict], None]] = None,
+             on_plan: Optional[Callable[[int, int], None]] = None) -> RunSummary:
+    policy_options = dict(policy_options or {})
+    settings = settings or EpisodeSettings()
+    if trials < 1:
+        raise VProError(f"--trials must be at least 1, got {trials}")
+    for case in cases:
+        if trials > len(case["trial_seeds"]):
+            raise VProError(f"--trials {trials}: case {case['id']} has {len(case['trial_seeds'])} trials")
+    make_policy(policy_spec, policy_options)  # fail fast on a bad spec, before any worker starts
+    pid = policy_label(policy_spec, policy_options)
+    started = time.monotonic()
+    with ResultsStore(results) as store:
+        if resume:
+            run_id = run_id or store.latest_run_id()
+            run = store.run(run_id) if run_id else None
+            if run is None:
+                raise VProError(f"{results}: no run {run_id!r} to resume" if run_id else f"{results}: no run to resume")
+            if run["policy_spec"] != policy_spec or run["settings"] != settings.to_json():
+                raise VProError(f"run {run_id} was started with policy {run['policy_spec']!r} and settings "
+                                f"{run['settings']}; resume it with the same options")
+        else:
+            run_id = run_id or new_run_id(pid)
+            if store.run(run_id) is not None:
+                raise VProError(f"{results}: run {run_id!r} exists; continue it with --resume")
+            store.create_run(run_id, policy_spec, pid, settings.to_json(), list(selection), trials,
+                             library_versions(), _catalog_sha(paths.catalog_path()))
+        done = store.done_keys(run_id, include_errors=not retry_errors)
+        jobs = []
+        for case in cases:
+            for trial in range(trials):
+                if (case["id"], trial) in done:
+                    continue
+                job = make_job(run_id, case, trial, policy_spec, policy_options, settings, retries, retry_delay)
+                job["prior_attempts"] = store.attempts(run_id, case["id"], trial)
+                jobs.append(job)
+        skipped = len(cases) * trials - len(jobs)
+        log.info("run %s: %d episode(s) to run, %d already recorded", run_id, len(jobs), skipped)
+        if on_plan:
+            on_plan(len(jobs), skipped)
+        recorded = 0
+        for row in run_jobs(jobs, backend, workers, address):
+            if store.record(row):
+                recorded += 1
+            if on_row:
+                on_row(row)
+        counts = store.count(run_id)
+    return RunSummary(run_id, len(jobs), skipped, recorded, counts, time.monotonic() - started)

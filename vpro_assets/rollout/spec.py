@@ -1,0 +1,46 @@
+"""`--policy SPEC`: the one string that names a policy, rebuilt inside every worker.
+
+- `noop`, `random`, `oracle`: reference policies (`oracle` only if the scripted policy exists);
+- `openpi:HOST:PORT` or `ws://HOST:PORT`: an openpi websocket policy server;
+- `py:MODULE:ATTR` (or plain `MODULE:ATTR`): an in-process Python callable or class.
+
+Options (timeouts, replanning) travel as a JSON-able dict next to the spec.
+"""
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+from ..errors import VProError
+from .callable_adapter import make_python_policy
+from .openpi_adapter import OpenpiPolicy
+from .reference import REFERENCE_POLICIES
+
+OPENPI_OPTIONS = ("replan_steps", "connect_timeout", "infer_timeout", "resize", "api_key", "policy_id")
+
+
+def parse_openpi(spec: str) -> tuple[str, int]:
+    rest = spec.split("://", 1)[1] if "://" in spec else spec.split(":", 1)[1]
+    host, _, port = rest.rpartition(":")
+    if not host or not port.isdigit():
+        raise VProError(f"policy {spec!r}: expected openpi:HOST:PORT or ws://HOST:PORT")
+    return host, int(port)
+
+
+def make_policy(spec: str, options: Mapping[str, Any] | None = None):
+    options = {k: v for k, v in (options or {}).items() if v is not None}
+    if spec in REFERENCE_POLICIES:
+        return REFERENCE_POLICIES[spec]()
+    if spec.startswith(("openpi:", "ws://")):
+        host, port = parse_openpi(spec)
+        return OpenpiPolicy(host, port, **{k: options[k] for k in OPENPI_OPTIONS if k in options})
+    target = spec[3:] if spec.startswith("py:") else spec
+    if ":" in target:
+        return make_python_policy(target)
+    raise VProError(f"unknown policy {spec!r}: use noop, random, oracle, openpi:HOST:PORT, ws://HOST:PORT "
+                    "or py:MODULE:ATTR")
+
+
+def policy_label(spec: str, options: Mapping[str, Any] | None = None) -> str:
+    """The policy id recorded in every row (the user's --policy-id if given)."""
+    options = options or {}
+    return str(options.get("policy_id") or spec)
