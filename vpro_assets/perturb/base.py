@@ -1,0 +1,122 @@
+"""What every observation perturbation implements, and what it is given at each step.
+
+A `Perturbation` is built once per case from the setting's parameters (validated there, with the
+case id and the bad value in the error), reset at the start of every episode with the trial's
+seeds, and then asked once per observation to transform the raw frames of the cameras. It keeps
+its state in itself, clears it in `reset`, draws randomness only from `Episode.rng`, and never
+touches the simulator's physical state: it reads the sim, and scene edits only change what one
+camera draws (`render_edits`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+from ..seeding import rng
+from ..tasks import TaskRecord
+from .entities import EntityIndex
+from .phases import PhaseState
+from .rendering import SceneEdit, render_geom_ids
+
+
+@dataclass(frozen=True)
+class Episode:
+    case_id: str
+    trial: int
+    task: TaskRecord
+
+    def rng(self, component: str) -> np.random.Generator:
+        return rng(self.case_id, self.trial, component)
+
+
+class MaskSource:
+    """Semantic masks of one observation, rendered on demand and cached per camera.
+
+    A segmentation pass is rendered only the first time a camera's mask is asked for in a step,
+    so perturbations that are off in a step (outside their schedule) cost nothing.
+    """
+
+    def __init__(self, sim, entities: EntityIndex, shapes: Mapping[str, tuple[int, int]]):
+        self.sim, self.entities, self.shapes = sim, entities, shapes
+        self._geom_ids: dict[str, np.ndarray] = {}
+        self._masks: dict[tuple[str, str], np.ndarray] = {}
+        self.renders = 0
+
+    def geom_ids(self, camera: str) -> np.ndarray:
+        if camera not in self._geom_ids:
+            h, w = self.shapes[camera]
+            self._geom_ids[camera] = render_geom_ids(self.sim, camera, w, h)
+            self.renders += 1
+        return self._geom_ids[camera]
+
+    def mask(self, camera: str, label: str) -> np.ndarray:
+        """Boolean raw-frame mask of `label` (target, receptacle, gripper) in `camera`."""
+        key = (camera, label)
+        if key not in self._masks:
+            entity = self.entities.entity(label)
+            if entity is None:
+                self._masks[key] = np.zeros(self.shapes[camera], dtype=bool)
+            else:
+                lut = np.zeros(self.entities.model.ngeom + 1, dtype=bool)
+                lut[list(entity.geoms)] = True
+                self._masks[key] = lut[self.geom_ids(camera)]  # -1 (background) indexes the False at the end
+        return self._masks[key]
+
+
+@dataclass
+class Step:
+    """Everything a perturbation may read for one observation."""
+
+    index: int  # 0 for the observation at reset, then one per env step
+    phase: PhaseState
+    clean: Mapping[str, np.ndarray]  # the rendered raw frames of this step, never to be modified
+    masks: MaskSource
+    predicted: Mapping[str, np.ndarray] | None = None
+    notes: dict[str, list[str]] = field(default_factory=dict)  # camera -> what was applied
+
+    def note(self, camera: str, what: str) -> None:
+        self.notes.setdefault(camera, []).append(what)
+
+
+class Perturbation:
+    """Base class: the identity perturbation."""
+
+    setting_id: str = ""
+    #: True where the setting needs a segmentation render or per-camera scene edits.
+    needs_extra_render: bool = False
+
+    def reset(self, episode: Episode) -> None:
+        """Start an episode: clear all state, draw the trial's seeds."""
+
+    def attach(self, sim, entities: EntityIndex) -> None:
+        """Called after every (hard) reset of the sim, before its first observation is rendered."""
+
+    def render_edits(self) -> Mapping[str, SceneEdit]:
+        """Camera name -> scene edit applied while that camera renders."""
+        return {}
+
+    def cameras(self, cameras: tuple[str, ...]) -> tuple[str, ...]:
+        """The cameras the policy receives (a view may be removed)."""
+        return cameras
+
+    def apply(self, frames: dict[str, np.ndarray], step: Step) -> None:
+        """Replace (or delete) entries of `frames`, camera -> raw frame; never modify arrays in place."""
+
+
+Builder = Callable[[str, Mapping, TaskRecord], Perturbation]
+
+
+def param(case_id: str, params: Mapping, name: str, kinds, check: Callable | None = None, what: str = ""):
+    """A validated parameter of a case: present, of the right type, and passing `check`."""
+    if name not in params:
+        raise InvalidParameterError(f"case {case_id}: missing parameter {name!r}")
+    value = params[name]
+    allowed = kinds if isinstance(kinds, tuple) else (kinds,)
+    if not isinstance(value, allowed) or (isinstance(value, bool) and bool not in allowed):
+        raise InvalidParameterError(f"case {case_id}: parameter {name}={value!r} has the wrong type")
+    if check is not None and not check(value):
+        raise InvalidParameterError(f"case {case_id}: parameter {name}={value!r} is invalid{': ' + what if what else ''}")
+    return value

@@ -1,0 +1,118 @@
+"""Cross-View Contradiction: one camera draws an edited scene, the other the true one.
+
+The edit is applied to the manipulated camera's `MjvScene` while robosuite renders it
+(`rendering.RenderHook`), in the same render pass, so both views show the same time step and
+the truthful view is byte-identical to a clean render. Edits by attribute:
+
+- quantity (`duplicate_target`): a copy of the target drawn where the target stood at the first
+  observation of the episode, shifted by `DUPLICATE_OFFSET_M` (at least 1.2 target widths) in a
+  horizontal direction drawn per trial; it stays there while the real target is moved;
+- existence (`hide_target`): the target's geoms are not drawn;
+- position (`displace_target`): the target is drawn shifted by `offset_m` in a horizontal
+  direction drawn per trial, following the real target;
+- state (`other_state`): where the goal involves an articulated fixture, its moving parts (the
+  joint the goal names, e.g. the top drawer) are drawn at the other end of their joint range
+  (closed drawn open, off knob drawn on); otherwise the target is drawn upside down (rotated 180
+  degrees about a horizontal axis through its centre). The stove's flame decal is not toggled.
+"""
+from __future__ import annotations
+
+from typing import Mapping
+
+import mujoco
+import numpy as np
+
+from ..errors import InvalidParameterError
+from ..taxonomy import CONTRADICTION_OFFSET_M, VIEWS
+from . import scene_edits as se
+from .base import Episode, Perturbation, param
+from .entities import Entity, EntityIndex
+
+EDITS = {"quantity": "duplicate_target", "existence": "hide_target", "position": "displace_target",
+         "state": "other_state"}
+DUPLICATE_OFFSET_M = CONTRADICTION_OFFSET_M
+FLIP = np.diag([1.0, -1.0, -1.0])  # 180 degrees about the world x axis
+
+
+class Contradiction(Perturbation):
+    needs_extra_render = True
+
+    def __init__(self, case_id: str, params: Mapping, task):
+        self.case_id = case_id
+        self.attribute = param(case_id, params, "attribute", str, lambda v: v in EDITS, f"one of {', '.join(EDITS)}")
+        edit = param(case_id, params, "edit", str)
+        if edit != EDITS[self.attribute]:
+            raise InvalidParameterError(f"case {case_id}: edit={edit!r} does not match attribute "
+                                        f"{self.attribute!r} (expected {EDITS[self.attribute]!r})")
+        self.camera = param(case_id, params, "camera", str, lambda v: v in VIEWS.values())
+        if self.attribute == "position":
+            self.offset_m = float(param(case_id, params, "offset_m", (int, float), lambda v: 0 < v < 1, "metres"))
+        self.use_articulation = self.attribute == "state" and bool(task.articulations)
+        if task.target is None and not self.use_articulation:
+            raise InvalidParameterError(f"case {case_id}: task {task.key} has no target (and no articulated "
+                                        f"fixture) to contradict")
+        self.direction = np.zeros(3)
+        self.entities: EntityIndex | None = None
+        self.sim = None
+        self._anchor: list[dict] | None = None
+        self._scratch: mujoco.MjData | None = None
+        self._joints: list[tuple[int, float, float]] = []
+
+    def reset(self, episode: Episode) -> None:
+        angle = float(episode.rng("contradiction-direction").uniform(0, 2 * np.pi))
+        self.direction = np.array([np.cos(angle), np.sin(angle), 0.0])
+        self._anchor = None
+
+    def attach(self, sim, entities: EntityIndex) -> None:
+        self.sim, self.entities = sim, entities
+        self._anchor = None
+        if self.use_articulation:
+            self._scratch = mujoco.MjData(sim.model._model)
+            self._joints = entities.articulation_joints()
+
+    @property
+    def edited_entity(self) -> Entity:
+        """The entity whose drawing differs in the manipulated view."""
+        if self.use_articulation:
+            return self.entities.articulations[0] if len(self.entities.articulations) == 1 else Entity(
+                "articulations", tuple(b for a in self.entities.articulations for b in a.bodies),
+                tuple(g for a in self.entities.articulations for g in a.geoms), ())
+        return self.entities.target
+
+    def render_edits(self):
+        return {self.camera: self.edit}
+
+    def _target_width(self) -> float:
+        m = self.entities.model
+        return max(float(np.linalg.norm(m.geom_aabb[g][3:5])) * 2 for g in self.entities.target.geoms)
+
+    def edit(self, scn: mujoco.MjvScene) -> None:
+        model = self.entities.model
+        if self.use_articulation:
+            self._other_state(scn)
+            return
+        idx = se.find(scn, self.entities.target.geoms)
+        if not idx:
+            return
+        if self.attribute == "existence":
+            se.remove(scn, idx)
+        elif self.attribute == "position":
+            se.transform(scn, idx, offset=self.direction * self.offset_m)
+        elif self.attribute == "state":
+            se.transform(scn, idx, rotation=FLIP, center=se.visual_center(scn, idx, model))
+        else:
+            if self._anchor is None:
+                self._anchor = [se.snapshot(scn.geoms[i]) for i in idx]
+            shift = max(DUPLICATE_OFFSET_M, 1.2 * self._target_width())
+            se.append(scn, self._anchor, offset=self.direction * shift)
+
+    def _other_state(self, scn: mujoco.MjvScene) -> None:
+        model, data, scratch = self.entities.model, self.sim.data._data, self._scratch
+        scratch.qpos[:] = data.qpos
+        for j, lo, hi in self._joints:
+            adr = model.jnt_qposadr[j]
+            q = data.qpos[adr]
+            scratch.qpos[adr] = hi if (q - lo) < (hi - q) else lo
+        mujoco.mj_kinematics(model, scratch)
+        geoms = [g for ent in self.entities.articulations for g in ent.geoms]
+        se.set_poses(scn, se.find(scn, geoms), scratch.geom_xpos, scratch.geom_xmat)

@@ -1,0 +1,122 @@
+"""One camera frame from robosuite's offscreen render context, with an optional scene edit.
+
+robosuite's `MjRenderContext.render` runs `mjv_updateScene` then `mjr_render`; the frames of the
+policy's cameras come from it. `render_frame` does the same steps on the same context (same
+scene options, same buffers, so an unedited frame is byte-identical to robosuite's) and lets a
+caller edit the `MjvScene` in between: that is how one camera can be shown a contradicted scene
+while the simulation, and every other camera, stay untouched. Segmentation frames use MuJoCo's
+own segmentation mode and decode to geom ids (-1 for background and non-geom objects).
+
+`RenderHook` replaces the context's `render` method (on the instance only) so that robosuite's
+own camera sensors go through `render_frame` with the edit of their camera; robosuite re-creates
+the context on every hard reset, so the hook is installed again after each reset.
+"""
+from __future__ import annotations
+
+import logging
+from typing import Callable, Mapping
+
+import mujoco
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+SceneEdit = Callable[[mujoco.MjvScene], None]
+
+
+def render_context(sim):
+    ctx = getattr(sim, "_render_context_offscreen", None)
+    if ctx is None:
+        from ..errors import VProError
+
+        raise VProError("the env has no offscreen render context; build it with has_offscreen_renderer=True")
+    return ctx
+
+
+def _prepare(ctx, width: int, height: int, camera_id: int | None) -> mujoco.MjrRect:
+    if width > ctx.con.offWidth or height > ctx.con.offHeight:
+        ctx.update_offscreen_size(max(width, ctx.model.vis.global_.offwidth), max(height, ctx.model.vis.global_.offheight))
+    if camera_id is not None:
+        ctx.cam.type = mujoco.mjtCamera.mjCAMERA_FREE if camera_id == -1 else mujoco.mjtCamera.mjCAMERA_FIXED
+        ctx.cam.fixedcamid = camera_id
+    mujoco.mjv_updateScene(ctx.model._model, ctx.data._data, ctx.vopt, ctx.pert, ctx.cam,
+                           mujoco.mjtCatBit.mjCAT_ALL, ctx.scn)
+    return mujoco.MjrRect(0, 0, width, height)
+
+
+def draw(ctx, width: int, height: int, camera_id: int | None, edit: SceneEdit | None = None,
+         segmentation: bool = False) -> None:
+    """Update the scene for a camera, apply `edit`, and draw into the offscreen buffer."""
+    viewport = _prepare(ctx, width, height, camera_id)
+    if edit is not None:
+        edit(ctx.scn)
+    if segmentation:
+        ctx.scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 1
+        ctx.scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 1
+    try:
+        mujoco.mjr_render(viewport=viewport, scn=ctx.scn, con=ctx.con)
+    finally:
+        if segmentation:
+            ctx.scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 0
+            ctx.scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 0
+
+
+def render_rgb(sim, camera: str, width: int, height: int, edit: SceneEdit | None = None) -> np.ndarray:
+    """A raw (bottom-up) RGB frame of `camera`, as robosuite's camera sensor would return it."""
+    ctx = render_context(sim)
+    draw(ctx, width, height, sim.model.camera_name2id(camera), edit)
+    rgb = np.empty((height, width, 3), dtype=np.uint8)
+    mujoco.mjr_readPixels(rgb=rgb, depth=None, viewport=mujoco.MjrRect(0, 0, width, height), con=ctx.con)
+    return rgb
+
+
+def render_geom_ids(sim, camera: str, width: int, height: int, edit: SceneEdit | None = None) -> np.ndarray:
+    """Raw (bottom-up) int32 image of the geom id seen at each pixel, -1 where no geom is."""
+    ctx = render_context(sim)
+    draw(ctx, width, height, sim.model.camera_name2id(camera), edit, segmentation=True)
+    rgb = np.empty((height, width, 3), dtype=np.uint8)
+    mujoco.mjr_readPixels(rgb=rgb, depth=None, viewport=mujoco.MjrRect(0, 0, width, height), con=ctx.con)
+    seg = rgb[..., 0].astype(np.int32) | (rgb[..., 1].astype(np.int32) << 8) | (rgb[..., 2].astype(np.int32) << 16)
+    scn = ctx.scn
+    lut = np.full(scn.ngeom + 2, -1, dtype=np.int32)  # pixel value = segid + 1, 0 = background
+    geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
+    for i in range(scn.ngeom):
+        g = scn.geoms[i]
+        if g.segid >= 0 and g.objtype == geom_type and g.segid + 1 < len(lut):
+            lut[g.segid + 1] = g.objid
+    seg[seg >= len(lut)] = 0
+    return lut[seg]
+
+
+class RenderHook:
+    """Route robosuite's renders through `draw`, editing the scene for some cameras only.
+
+    `edits` maps camera names to scene edits; renders of other cameras (and segmentation
+    renders) are exactly robosuite's. `install(sim)` must follow every hard reset.
+    """
+
+    def __init__(self, edits: Mapping[str, SceneEdit]):
+        self.edits = dict(edits)
+        self._ctx = None
+        self._by_id: dict[int, SceneEdit] = {}
+
+    def install(self, sim) -> None:
+        self.uninstall()
+        ctx = render_context(sim)
+        self._by_id = {sim.model.camera_name2id(cam): edit for cam, edit in self.edits.items()}
+
+        def hooked_render(width, height, camera_id=None, segmentation=False):
+            edit = None if segmentation else self._by_id.get(camera_id)
+            draw(ctx, width, height, camera_id, edit, segmentation)
+
+        ctx.render = hooked_render  # instance attribute shadows the class method
+        self._ctx = ctx
+
+    def uninstall(self) -> None:
+        if self._ctx is not None and "render" in vars(self._ctx):
+            del self._ctx.render
+        self._ctx = None
+
+    @property
+    def installed(self) -> bool:
+        return self._ctx is not None
