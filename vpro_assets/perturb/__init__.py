@@ -11,7 +11,9 @@ Layout (one concept per module, in pipeline order):
 - `masking`, `corruption`, `views`, `staleness`, `contradiction` (+ `scene_edits`),
   `prediction`   one module per family of settings
 - `pipeline`     `ObservationPipeline` and the registry category -> family; `build_pipeline`
-- `wrapper`      `PerturbedEnv`, the env wrapper the rollout layer uses
+- `wrapper`      `PerturbedEnv`, a Gymnasium-style wrapper that owns reset and step
+- `observer`     `wrap_case_env`: the same pipeline as an observer of an env driven elsewhere
+                 (the interface `vpro_assets.rollout.case_env` calls)
 
 API for the rollout layer:
 
@@ -31,8 +33,9 @@ random draw comes from `seeding.rng(case_id, trial, component)`; the physics is 
 staleness, view unavailability, corruption and prediction feedback render nothing extra.
 """
 from .pipeline import FAMILIES, ObservationPipeline, build_pipeline, register
+from .observer import CaseObserver, wrap_case_env
 from .prediction import EchoPredictor, FramePredictingPolicy, PolicyOutput
 from .wrapper import PerturbedEnv
 
-__all__ = ["FAMILIES", "ObservationPipeline", "build_pipeline", "register", "PerturbedEnv", "PolicyOutput",
+__all__ = ["CaseObserver", "wrap_case_env", "FAMILIES", "ObservationPipeline", "build_pipeline", "register", "PerturbedEnv", "PolicyOutput",
            "FramePredictingPolicy", "EchoPredictor"]
