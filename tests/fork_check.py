@@ -1,0 +1,40 @@
+"""Run inside the fork venv (no libero-vpro installed): register a pack with the pack's own
+module, then build every pack scene through LIBERO's own API the way openpi's LIBERO example
+does, load every initial state with LIBERO's torch.load, and step. Prints a JSON report."""
+import importlib.util
+import json
+import os
+import sys
+
+pack = sys.argv[1]
+assert importlib.util.find_spec("vpro_assets") is None, "the fork venv must not have the toolkit"
+sys.path.insert(0, pack)
+import vpro_libero_fork  # noqa: E402
+
+classes = vpro_libero_fork.register(pack)
+again = vpro_libero_fork.register(pack)  # idempotent
+from libero.libero import benchmark, get_libero_path  # noqa: E402
+from libero.libero.envs import OffScreenRenderEnv  # noqa: E402
+
+report = {"suites": {}, "idempotent": {k: v.__name__ for k, v in again.items()} == {k: v.__name__ for k, v in classes.items()}}
+for name in classes:
+    suite = benchmark.get_benchmark_dict()[name]()
+    rows = []
+    for i in range(suite.n_tasks):
+        task = suite.get_task(i)
+        bddl = os.path.join(get_libero_path("bddl_files"), task.problem_folder, task.bddl_file)
+        assert bddl == suite.get_task_bddl_file_path(i)
+        states = suite.get_task_init_states(i)
+        env = OffScreenRenderEnv(bddl_file_name=bddl, camera_heights=64, camera_widths=64)
+        env.seed(0)
+        env.reset()
+        stepped = 0
+        for state in states[:10]:
+            env.set_init_state(state)
+            obs, reward, done, info = env.step([0.0] * 6 + [-1.0])
+            stepped += 1
+        env.close()
+        rows.append({"task": task.name, "language": task.language, "init_states": int(len(states)),
+                     "stepped": stepped, "image": list(obs["agentview_image"].shape)})
+    report["suites"][name] = rows
+print("REPORT " + json.dumps(report))

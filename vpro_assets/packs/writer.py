@@ -1,0 +1,171 @@
+"""Write a pack: the fork-facing LIBERO layout for a selection of cases.
+
+```
+<pack>/
+  manifest.json                     every other file's sha256 and size; suites, objects, provenance
+  README.md                         how to register the pack in a LIBERO fork
+  vpro_libero_fork.py               the registration module (self-contained)
+  taxonomy.json                     dimensions, categories, settings
+  cases/<suite>/<name>.json         each case's spec (catalog record + where its files are)
+  bddl_files/<suite>/<name>.bddl    LIBERO BDDL, one per case
+  init_files/<suite>/<name>.pruned_init   LIBERO's initial-state format (torch.load-able)
+  assets/<object>/...               generated objects (MJCF + meshes), referenced relatively
+```
+One suite per category, named `vpro_<category>`; a case's task name is `<task>__<setting name>`.
+Observation-level cases carry the base task's BDDL and LIBERO's initial states unchanged (the
+perturbation is applied at run time by `vpro_assets.wrap(env, case)`).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import tempfile
+from pathlib import Path
+
+from .. import __version__, libero_bridge, paths
+from ..catalog import library_versions
+from ..taxonomy import SCENE
+from . import archive, manifest as mf
+from .manifest import PackError
+
+FORK_MODULE = "vpro_libero_fork.py"
+README = """# LIBERO-VPro pack
+
+Register this pack inside any LIBERO installation (one call), then run its suites with the fork's
+own code:
+
+```python
+import sys; sys.path.insert(0, "<this folder>")
+import vpro_libero_fork
+vpro_libero_fork.register("<this folder>")
+from libero.libero import benchmark
+suite = benchmark.get_benchmark_dict()["<suite>"]()
+```
+
+Suites: {suites}. Observation-level cases need `vpro_assets.wrap(env, case)` around the env
+(see docs/packs.md of libero-vpro). `manifest.json` lists every file with its sha256;
+`vpro pack verify <this folder>` checks them.
+"""
+
+
+def libero_language(task_name: str) -> str:
+    """The instruction LIBERO's benchmark derives from a task's file name (what openpi and
+    OpenVLA-OFT prompt with); LIBERO's `grab_language_from_filename`, restated because importing
+    `libero.libero.benchmark` imports torch."""
+    if task_name[0].isupper():  # libero_10/90 names carry a SCENE prefix
+        cut = task_name.find("SCENE") + (8 if "SCENE10" in task_name else 7)
+        return " ".join(task_name[cut:].split("_"))
+    return " ".join(task_name.split("_"))
+
+
+def pack_names(case: dict) -> tuple[str, str]:
+    """(suite, task name) of a case inside a pack."""
+    return f"vpro_{case['category']}", f"{case['task']}__{case['setting'].rsplit('/', 1)[1]}"
+
+
+def _case_sources(case: dict) -> dict:
+    """Source files of a case: its BDDL, its initial states and any generated objects."""
+    if case["level"] == SCENE:
+        raise PackError(f"case {case['id']} changes the scene and its artifacts are not built; "
+                        f"run `vpro build --select {case['id']}` first")
+    return {"bddl": libero_bridge.bddl_path(case["suite"], case["task_name"]),
+            "init_states": libero_bridge.init_state_path(case["suite"], case["task_name"]), "objects": []}
+
+
+def _copy(src: Path, dest: Path) -> None:
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(src, dest)
+
+
+def _check_no_absolute_paths(root: Path) -> None:
+    forbidden = {str(paths.REPO_ROOT), str(libero_bridge.libero_root()), str(libero_bridge.assets_root()),
+                 str(Path.home())}
+    for path in root.rglob("*"):
+        if path.suffix in (".xml", ".bddl", ".json", ".urdf", ".usda", ".md", ".mtl", ".obj"):
+            text = path.read_text(encoding="utf-8", errors="replace")
+            hit = next((f for f in forbidden if f and f in text), None)
+            if hit:
+                raise PackError(f"{path.relative_to(root)} contains the absolute path {hit}; packs must be relocatable")
+
+
+def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> None:
+    suites: dict[str, list[dict]] = {}
+    objects: dict[str, dict] = {}
+    for case in cases:
+        suite, name = pack_names(case)
+        sources = _case_sources(case)
+        _copy(Path(sources["bddl"]), root / "bddl_files" / suite / f"{name}.bddl")
+        _copy(Path(sources["init_states"]), root / "init_files" / suite / f"{name}.pruned_init")
+        for obj in sources["objects"]:
+            dest = root / "assets" / obj["name"]
+            if obj["name"] not in objects:
+                shutil.copytree(obj["dir"], dest, dirs_exist_ok=True)
+                objects[obj["name"]] = {k: v for k, v in obj.items() if k != "dir"} | {
+                    "xml": f"assets/{obj['name']}/{obj['xml']}"}
+        language = libero_language(case["task_name"])
+        spec = dict(case, pack={"suite": suite, "name": name, "instruction": language,
+                                "bddl": f"bddl_files/{suite}/{name}.bddl",
+                                "init_states": f"init_files/{suite}/{name}.pruned_init"})
+        (root / "cases" / suite).mkdir(parents=True, exist_ok=True)
+        (root / "cases" / suite / f"{name}.json").write_text(json.dumps(spec, sort_keys=True, indent=1) + "\n")
+        suites.setdefault(suite, []).append({"name": name, "language": language, "case": case["id"]})
+    (root / "taxonomy.json").write_text(json.dumps(
+        {k: catalog[k] for k in ("dimensions", "categories", "settings")}, sort_keys=True, indent=1) + "\n")
+    (root / FORK_MODULE).write_bytes((Path(__file__).resolve().parent.parent / "libero_fork.py").read_bytes())
+    (root / "README.md").write_text(README.format(suites=", ".join(f"`{s}`" for s in sorted(suites))))
+    _check_no_absolute_paths(root)
+    files = mf.file_entries(root)
+    manifest = {
+        "pack_format": mf.PACK_FORMAT,
+        "schema_version": mf.PACK_SCHEMA_VERSION,
+        "pack_version": __version__,
+        "pack_id": hashlib.sha256(json.dumps(files, sort_keys=True).encode()).hexdigest(),
+        "catalog_sha256": catalog_sha,
+        "taxonomy_version": catalog["header"]["taxonomy_version"],
+        "library_versions": library_versions(),
+        "cases": [c["id"] for c in cases],
+        "suites": suites,
+        "objects": [objects[k] for k in sorted(objects)],
+        "files": files,
+    }
+    (root / mf.MANIFEST).write_text(mf.dumps(manifest))
+
+
+def write_pack(cases: list[dict], out: Path, catalog: dict, catalog_file: Path) -> Path:
+    """Write the pack as a folder, or as a deterministic archive when `out` ends in .tar.gz.
+    Nothing is left half-written: the pack is assembled in a temporary folder and moved in."""
+    if not cases:
+        raise PackError("the selection is empty; nothing to pack")
+    out = Path(out)
+    catalog_sha = mf.sha256_file(catalog_file)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix=".vpro-pack-", dir=out.parent) as tmp:
+        stage = Path(tmp) / "pack"
+        stage.mkdir()
+        _fill(stage, cases, catalog, catalog_sha)
+        if out.name.endswith(archive.ARCHIVE_SUFFIX):
+            pack_id = json.loads((stage / mf.MANIFEST).read_text())["pack_id"]
+            archive.write_archive(stage, out, top=f"vpro_pack-{pack_id[:12]}")
+        else:
+            if out.exists():
+                shutil.rmtree(out) if out.is_dir() else out.unlink()
+            stage.rename(out)
+    return out
+
+
+def open_pack(pack: Path, workdir: Path) -> Path:
+    """A pack folder from a folder or an archive (extracted into `workdir`)."""
+    pack = Path(pack)
+    if pack.is_file():
+        return archive.extract_archive(pack, workdir)
+    if not pack.is_dir():
+        raise PackError(f"{pack}: no such pack folder or archive")
+    return pack
+
+
+def verify_pack(pack: Path) -> tuple[dict, mf.Mismatch]:
+    with tempfile.TemporaryDirectory(prefix="vpro-pack-verify-") as tmp:
+        root = open_pack(pack, Path(tmp))
+        manifest = mf.read_manifest(root)
+        return manifest, mf.compare(manifest, root)
