@@ -22,6 +22,7 @@ import signal
 from typing import Iterable, Iterator, Optional
 
 from ..errors import VProError
+from .case_env import release_cached_envs
 from .jobs import base_row, execute_job
 from .store import utc_now
 
@@ -35,8 +36,11 @@ def worker_env(workers: int) -> dict[str, str]:
 
 
 def run_inline(jobs: Iterable[dict]) -> Iterator[dict]:
-    for job in jobs:
-        yield execute_job(job)
+    try:
+        for job in jobs:
+            yield execute_job(job)
+    finally:
+        release_cached_envs()
 
 
 def _die_with_parent() -> None:
@@ -61,6 +65,7 @@ def _worker_main(tasks, results, parent_pid: int, env: dict) -> None:
                 return
             continue
         if job is None:
+            release_cached_envs()
             return
         results.put(("start", (job["case"]["id"], job["trial"]), os.getpid()))
         results.put(("row", execute_job(job), os.getpid()))

@@ -90,12 +90,39 @@ def scene_artifacts(case: Mapping) -> dict:
     raise CaseUnavailableError(f"case {case['id']}: scene not built; run vpro build --select {case['id']}")
 
 
+# One built LIBERO env kept per process between episodes, as LIBERO's own evaluation scripts keep
+# one env per task and call reset() (a hard reset: the model is reloaded) before each trial. The
+# trajectories are bit-identical to those of a fresh env (checked by the backend-equality test).
+_ENV_CACHE: dict[tuple, Any] = {}
+
+
+def _take_cached_env(key: tuple):
+    env = _ENV_CACHE.pop(key, None)
+    for other in list(_ENV_CACHE):
+        _close_quietly(_ENV_CACHE.pop(other))
+    return env
+
+
+def _close_quietly(env) -> None:
+    try:
+        env.close()
+    except Exception:  # a half-built env may fail to close; nothing to keep
+        log.debug("env close failed", exc_info=True)
+
+
+def release_cached_envs() -> None:
+    for key in list(_ENV_CACHE):
+        _close_quietly(_ENV_CACHE.pop(key))
+
+
 class CaseEnv:
     """One episode's environment: LIBERO env + optional perturbation wrapper + initial state."""
 
     def __init__(self, case: Mapping, trial: int, env, init_state: np.ndarray, wrapper=None,
-                 artifacts: Optional[dict] = None, scene: Optional[dict] = None):
+                 artifacts: Optional[dict] = None, scene: Optional[dict] = None, cache_key: Optional[tuple] = None):
         self.case, self.trial, self.env, self.wrapper = case, trial, env, wrapper
+        self.cache_key = cache_key
+        self.broken = False
         self.init_state = init_state
         self.artifact_hashes = artifacts or {}
         self.scene = scene or {}
@@ -110,6 +137,7 @@ class CaseEnv:
             self.env.reset()
             obs = self.env.set_init_state(self.init_state)
         except Exception as exc:
+            self.broken = True
             raise SimulatorError(f"case {self.case['id']} trial {self.trial}: reset failed ({type(exc).__name__}: {exc})") from exc
         if self.wrapper is not None and hasattr(self.wrapper, "on_reset"):
             self.wrapper.on_reset(obs)
@@ -119,6 +147,7 @@ class CaseEnv:
         try:
             obs, _reward, done, _info = self.env.step(np.asarray(action, dtype=np.float64))
         except Exception as exc:
+            self.broken = True
             raise SimulatorError(f"case {self.case['id']} trial {self.trial}: step failed ({type(exc).__name__}: {exc})") from exc
         if self.wrapper is not None and hasattr(self.wrapper, "on_step"):
             self.wrapper.on_step(obs)
@@ -139,17 +168,35 @@ class CaseEnv:
             return self.wrapper.phase_timeline()
         return None
 
+    def state_digest(self) -> str:
+        """sha256 of the flattened simulator state (time, qpos, qvel), rounded to 1e-9."""
+        state = np.round(np.asarray(self.env.get_sim_state(), dtype=np.float64), 9) + 0.0
+        return hashlib.sha256(state.tobytes()).hexdigest()
+
     def success(self) -> bool:
         return bool(self.env.check_success())
 
     def close(self) -> None:
-        try:
-            self.env.close()
-        except Exception:  # a half-built env may fail to close; nothing to keep
-            log.debug("env close failed", exc_info=True)
+        """Keep the bare env for the next episode of the same scene, unless it failed."""
+        if self.cache_key is not None and not self.broken:
+            release_cached_envs()
+            _ENV_CACHE[self.cache_key] = self.env
+        else:
+            _close_quietly(self.env)
 
 
-def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs: Optional[dict] = None) -> CaseEnv:
+def check_available(case: Mapping) -> None:
+    """CaseUnavailableError if the case cannot run in this checkout (cheap: builds nothing)."""
+    level = "normal" if is_normal(case) else case.get("level")
+    if level == "scene":
+        scene_artifacts(case)
+    elif level == "observation" and perturb_layer() is None:
+        raise CaseUnavailableError(f"case {case['id']}: the observation perturbation layer "
+                                   "(vpro_assets.perturb) is not in this checkout")
+
+
+def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs: Optional[dict] = None,
+                 reuse: bool = True) -> CaseEnv:
     """Build the environment of one trial of one case (see the module docstring)."""
     task = get_task(case["task"])
     rows = case.get("init_states", {}).get("rows") or list(range(10))
@@ -175,8 +222,11 @@ def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs
     if not 0 <= row < len(states):
         raise VProError(f"case {case['id']}: initial-state row {row} out of range ({len(states)} rows in {init_path})")
     hashes = {"bddl": sha256_file(bddl), "init_states": sha256_file(init_path), "init_row": row}
+    key = (bddl, resolution, repr(sorted((env_kwargs or {}).items()))) if reuse else None
+    env = _take_cached_env(key) if reuse else None
     try:
-        env = make_env(task, resolution, bddl_file=bddl if level == "scene" else None, **(env_kwargs or {}))
+        if env is None:
+            env = make_env(task, resolution, bddl_file=bddl if level == "scene" else None, **(env_kwargs or {}))
     except VProError:
         raise
     except Exception as exc:
@@ -186,6 +236,6 @@ def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs
         try:
             wrapper = _make_wrapper(wrapper_module, env, case, trial, resolution)
         except Exception:
-            env.close()
+            _close_quietly(env)
             raise
-    return CaseEnv(case, trial, env, states[row], wrapper, hashes, scene)
+    return CaseEnv(case, trial, env, states[row], wrapper, hashes, scene, cache_key=key)

@@ -18,7 +18,8 @@ from typing import Optional
 import numpy as np
 
 from ..env import CAMERAS, NOOP_ACTION
-from .case_env import CaseEnv, env_for_case
+from ..tasks import get_task
+from .case_env import CaseEnv, check_available, env_for_case
 from .contacts import ContactTracker
 from .policy import EpisodeInfo, InfrastructureError, Observation, validate_actions
 
@@ -52,18 +53,20 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
     """Run one episode and return its row fields. Raises InfrastructureError or CaseUnavailableError."""
     started = time.time()
     seed = int(case["trial_seeds"][trial])
+    check_available(case)
+    # The policy first: a server that is down is found before the env is built.
+    episode = EpisodeInfo(instruction=get_task(case["task"]).language, case_id=case["id"], trial=trial, seed=seed,
+                          suite=case["suite"], task=case["task"])
+    try:
+        policy.reset(episode)
+    except InfrastructureError:
+        raise
+    except Exception as exc:
+        raise InfrastructureError(f"policy {policy.policy_id}: reset raised {type(exc).__name__}: {exc}") from exc
     cenv = env_for_case(case, trial, resolution=settings.resolution)
     frames: list[np.ndarray] = []
     try:
-        episode = EpisodeInfo(instruction=cenv.task.language, case_id=case["id"], trial=trial, seed=seed,
-                              suite=case["suite"], task=case["task"])
         obs = cenv.reset()
-        try:
-            policy.reset(episode)
-        except InfrastructureError:
-            raise
-        except Exception as exc:
-            raise InfrastructureError(f"policy {policy.policy_id}: reset raised {type(exc).__name__}: {exc}") from exc
         if hasattr(policy, "bind_env"):
             policy.bind_env(cenv)
         contacts = ContactTracker(cenv.sim, cenv.task.target, _distractors(cenv))
@@ -104,7 +107,8 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
         video = _write_video(settings.video_dir, case["id"], trial, frames) if settings.video_dir else None
         return {"success": success, "steps": steps, "seed": seed, "phase_timeline": timeline,
                 "contact": contacts.summary(), "artifact_hashes": cenv.artifact_hashes,
-                "wall_time": time.time() - started, "video": video}
+                "wall_time": time.time() - started, "video": video,
+                "final_state": cenv.state_digest()}
     finally:
         cenv.close()
 

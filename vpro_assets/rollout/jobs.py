@@ -97,7 +97,7 @@ def execute_job(job: dict) -> dict:
         row.update(status="ok", success=bool(result["success"]), steps=result["steps"],
                    phase_timeline=result["phase_timeline"], contact=result["contact"]["composition"],
                    contact_detail=result["contact"], wall_time=result["wall_time"],
-                   artifact_hashes=result["artifact_hashes"], video=result["video"], error=None, error_kind=None)
+                   artifact_hashes=result["artifact_hashes"], video=result["video"], final_state=result["final_state"], error=None, error_kind=None)
         break
     else:
         row.update(status="error", error=f"{last_error} (after {budget} attempt(s))", error_kind=kind)

@@ -13,6 +13,7 @@ a clean stream.
 from __future__ import annotations
 
 import logging
+import inspect
 import math
 from typing import Optional
 
@@ -85,8 +86,10 @@ class OpenpiPolicy:
 
         headers = {"Authorization": f"Api-Key {self.api_key}"} if self.api_key else None
         try:
+            # The connection outlives this call (as in openpi-client); websockets 17 calls that `legacy`.
+            extra = {"legacy": True} if "legacy" in inspect.signature(websockets.sync.client.connect).parameters else {}
             ws = websockets.sync.client.connect(self.uri, compression=None, max_size=None, additional_headers=headers,
-                                                open_timeout=self.connect_timeout)
+                                                open_timeout=self.connect_timeout, **extra)
         except TimeoutError:
             raise PolicyTimeoutError(f"policy server {self.uri}: no handshake within {self.connect_timeout:g} s") from None
         except (OSError, Exception) as exc:  # ConnectionRefusedError, InvalidHandshake, InvalidURI...

@@ -87,6 +87,9 @@ def run_eval(cases: Sequence[dict], *, results: Path | str, policy_spec: str, po
                 job = make_job(run_id, case, trial, policy_spec, policy_options, settings, retries, retry_delay)
                 job["prior_attempts"] = store.attempts(run_id, case["id"], trial)
                 jobs.append(job)
+        # Episodes of one task side by side: a worker reuses its env between them (reset, as LIBERO does).
+        order = {t: i for i, t in reversed(list(enumerate(c["task"] for c in cases)))}
+        jobs.sort(key=lambda j: order[j["case"]["task"]])
         skipped = len(cases) * trials - len(jobs)
         log.info("run %s: %d episode(s) to run, %d already recorded", run_id, len(jobs), skipped)
         if on_plan:

@@ -12,7 +12,8 @@ Tables:
        setting, indicator, level, status ('ok' | 'error' | 'unavailable'), success (0/1, NULL
        unless ok), steps, phase_timeline JSON, contact ('target_only' | 'distractor_only' | 'both'
        | 'neither'), contact_detail JSON, wall_time, artifact_hashes JSON, error, error_kind,
-       attempts, worker, finished_at, video)
+       attempts, worker, finished_at, video, final_state (sha256 of the
+       simulator state at the end: a fingerprint of the trajectory, equal across backends))
 """
 from __future__ import annotations
 
@@ -60,6 +61,7 @@ CREATE TABLE IF NOT EXISTS episodes (
     worker TEXT,
     finished_at TEXT,
     video TEXT,
+    final_state TEXT,
     PRIMARY KEY (run_id, case_id, trial)
 );
 CREATE INDEX IF NOT EXISTS episodes_by_category ON episodes(run_id, category, setting);
@@ -68,7 +70,7 @@ CREATE INDEX IF NOT EXISTS episodes_by_category ON episodes(run_id, category, se
 EPISODE_COLUMNS = ("run_id", "case_id", "trial", "seed", "policy_id", "suite", "task", "dimension", "category",
                    "setting", "indicator", "level", "status", "success", "steps", "phase_timeline", "contact",
                    "contact_detail", "wall_time", "artifact_hashes", "error", "error_kind", "attempts", "worker",
-                   "finished_at", "video")
+                   "finished_at", "video", "final_state")
 _JSON_COLUMNS = ("phase_timeline", "contact_detail", "artifact_hashes")
 
 
