@@ -8,8 +8,34 @@ import sys
 
 pack = sys.argv[1]
 assert importlib.util.find_spec("vpro_assets") is None, "the fork venv must not have the toolkit"
-sys.path.insert(0, pack)
+if pack.endswith(".tar.gz"):
+    # A user unpacks the archive to get the module (`tar xzf`); register() takes the archive itself.
+    import tarfile
+    import tempfile
+
+    unpacked = tempfile.mkdtemp()
+    with tarfile.open(pack) as tar:
+        tar.extractall(unpacked, filter="data")
+    sys.path.insert(0, os.path.join(unpacked, os.listdir(unpacked)[0]))
+else:
+    sys.path.insert(0, pack)
 import vpro_libero_fork  # noqa: E402
+
+if len(sys.argv) > 2 and sys.argv[2] == "--expect-clash":
+    # The pack's manifest was edited to reuse names LIBERO already has: registration must refuse
+    # and leave both registries exactly as they were.
+    from libero.libero import benchmark
+    from libero.libero.envs import OBJECTS_DICT
+
+    before = (dict(OBJECTS_DICT), dict(benchmark.BENCHMARK_MAPPING))
+    try:
+        vpro_libero_fork.register(pack)
+    except vpro_libero_fork.PackRegistrationError as exc:
+        after = (dict(OBJECTS_DICT), dict(benchmark.BENCHMARK_MAPPING))
+        print("REPORT " + json.dumps({"error": str(exc), "unchanged": before == after}))
+    else:
+        print("REPORT " + json.dumps({"error": None}))
+    sys.exit(0)
 
 classes = vpro_libero_fork.register(pack)
 again = vpro_libero_fork.register(pack)  # idempotent
