@@ -29,10 +29,17 @@ def partial_mask(mask: np.ndarray, ratio: float, angle: float) -> np.ndarray:
     return out
 
 
+def disk(radius: int) -> np.ndarray:
+    """Structuring element: the pixel offsets at Euclidean distance <= radius."""
+    yy, xx = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    return (yy * yy + xx * xx <= radius * radius).astype(np.uint8)
+
+
 def dilate(mask: np.ndarray, radius: int) -> np.ndarray:
+    """Pixels within Euclidean distance `radius` of the mask."""
     if radius <= 0:
         return mask.astype(bool)
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+    kernel = disk(radius)
     return cv2.dilate(mask.astype(np.uint8), kernel).astype(bool)
 
 
