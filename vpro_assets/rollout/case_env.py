@@ -5,8 +5,11 @@
   perturbation layer (`vpro_assets.perturb`, issue 3) when that layer is in the checkout. Without
   it the case is *unavailable* (a recorded error), never silently run unperturbed.
 - Scene cases (distractors, preconditions, ambiguity, geometry): the generated BDDL and frozen
-  initial states of the built case (`vpro build`, issue 4); a case whose artifacts are not built is
-  unavailable with the message "not built; run vpro build".
+  initial states of the built case (`vpro build`, issue 4, found by `vpro_assets.scene.build`); a
+  case whose artifacts are not built is unavailable with the message "not built; run vpro build".
+
+The phase timeline comes from the perturbation layer's phase tracker: the wrapper's own for
+observation cases, a bare `PhaseTracker` for Normal and scene cases.
 
 An unavailable case raises CaseUnavailableError (recorded once, not retried); anything the
 simulator raises becomes SimulatorError (an infrastructure error, retried).
@@ -71,23 +74,41 @@ def _make_wrapper(module, env, case: Mapping, trial: int, resolution: int):
 
 
 def scene_artifacts(case: Mapping) -> dict:
-    """The built scene of a scene case: {'bddl': path, 'init_states': path, ...} or CaseUnavailableError."""
-    found = None
-    if importlib.util.find_spec("generators") is not None:
-        generators = importlib.import_module("generators")
-        for name in ("built_case", "case_artifacts", "find_built_case"):
-            if hasattr(generators, name):
-                try:
-                    found = getattr(generators, name)(case["id"])
-                except (VProError, FileNotFoundError, KeyError):
-                    found = None
-                break
-    if found:
-        found = dict(found)
-        bddl, init = found.get("bddl"), found.get("init_states")
-        if bddl and init and Path(bddl).is_file() and Path(init).is_file():
-            return found
-    raise CaseUnavailableError(f"case {case['id']}: scene not built; run vpro build --select {case['id']}")
+    """The built scene of a scene case (`vpro_assets.scene.build.built_case`: bddl, init_states,
+    meta, with its generated objects registered with LIBERO), or CaseUnavailableError."""
+    if importlib.util.find_spec("vpro_assets.scene") is None:
+        raise CaseUnavailableError(f"case {case['id']}: scene not built; run vpro build "
+                                   "(the scene builder, vpro_assets.scene, is not in this checkout)")
+    from ..scene.build import built_case
+
+    try:
+        found = dict(built_case(case["id"]))
+    except (VProError, FileNotFoundError, KeyError, StopIteration, ValueError) as exc:
+        raise CaseUnavailableError(f"case {case['id']}: scene not built; run vpro build --select {case['id']} "
+                                   f"({exc})") from None
+    if not (Path(found["bddl"]).is_file() and Path(found["init_states"]).is_file()):
+        raise CaseUnavailableError(f"case {case['id']}: scene not built (files missing in {found.get('dir')}); "
+                                   f"run vpro build --select {case['id']}")
+    meta = found.get("meta") or {}
+    if case.get("category") == "task_relevant_distractors":
+        found["distractors"] = list(meta.get("added") or [])
+    return found
+
+
+def _phase_tracker(sim, task):
+    """The perturbation layer's phase tracker for an env without a perturbation wrapper, if present."""
+    if importlib.util.find_spec("vpro_assets.perturb.phases") is None:
+        return None
+    try:
+        from ..perturb.entities import EntityIndex
+        from ..perturb.phases import PhaseTracker
+
+        tracker = PhaseTracker(EntityIndex(sim, task))
+        tracker.reset()
+        return tracker
+    except Exception as exc:  # a scene variant the tracker does not understand: no timeline, not an error
+        log.warning("no phase timeline: %s", exc)
+        return None
 
 
 # One built LIBERO env kept per process between episodes, as LIBERO's own evaluation scripts keep
@@ -127,6 +148,7 @@ class CaseEnv:
         self.artifact_hashes = artifacts or {}
         self.scene = scene or {}
         self.task = get_task(case["task"])
+        self.tracker = None
 
     @property
     def sim(self):
@@ -141,6 +163,10 @@ class CaseEnv:
             raise SimulatorError(f"case {self.case['id']} trial {self.trial}: reset failed ({type(exc).__name__}: {exc})") from exc
         if self.wrapper is not None and hasattr(self.wrapper, "on_reset"):
             self.wrapper.on_reset(obs)
+        elif self.wrapper is None:
+            self.tracker = _phase_tracker(self.sim, self.task)
+            if self.tracker is not None:
+                self.tracker.update(self.sim)
         return obs
 
     def step(self, action: np.ndarray) -> tuple[dict, bool]:
@@ -151,6 +177,8 @@ class CaseEnv:
             raise SimulatorError(f"case {self.case['id']} trial {self.trial}: step failed ({type(exc).__name__}: {exc})") from exc
         if self.wrapper is not None and hasattr(self.wrapper, "on_step"):
             self.wrapper.on_step(obs)
+        elif self.tracker is not None:
+            self.tracker.update(self.sim)
         return obs, bool(done)
 
     def policy_images(self, obs: Mapping, step: int) -> dict[str, Optional[np.ndarray]]:
@@ -166,7 +194,7 @@ class CaseEnv:
     def phase_timeline(self) -> Optional[list]:
         if self.wrapper is not None and hasattr(self.wrapper, "phase_timeline"):
             return self.wrapper.phase_timeline()
-        return None
+        return self.tracker.timeline() if self.tracker is not None else None
 
     def state_digest(self) -> str:
         """sha256 of the flattened simulator state (time, qpos, qvel), rounded to 1e-9."""
