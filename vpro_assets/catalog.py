@@ -17,6 +17,7 @@ from .atomic import write_text_atomic
 from .errors import CatalogError, UnknownIdError
 from .seeding import SEED_SCHEME, TRIALS_PER_CASE, trial_seeds
 from .tasks import TaskRecord, load_tasks
+from .scene import lock as scene_lock_mod
 
 SCHEMA_VERSION = 1
 # Libraries whose versions decide what cases and artifacts contain.
@@ -39,10 +40,17 @@ def _libero_init_ref(task: TaskRecord) -> dict:
     return {"source": "libero", "file": task.init_relpath, "rows": list(range(TRIALS_PER_CASE))}
 
 
-def _case(task: TaskRecord, setting: tx.Setting) -> dict:
+def _case(task: TaskRecord, setting: tx.Setting, scene_lock: dict | None = None) -> dict:
     cat = tx.category(setting.category)
     cid = case_id(task, setting)
     scene = cat.level == tx.SCENE
+    # Scene cases: artifact hashes recorded by `vpro build` in the committed lock file.
+    built = (scene_lock or {}).get(cid) if scene else None
+    init_ref = {"source": "generated", "file": None, "rows": list(range(TRIALS_PER_CASE))}
+    artifacts: dict = {}
+    if built:
+        init_ref["file"] = scene_lock_mod.init_file(cid, built)
+        artifacts = scene_lock_mod.case_artifacts(cid, built)
     return {
         "id": cid,
         "suite": task.suite,
@@ -57,9 +65,8 @@ def _case(task: TaskRecord, setting: tx.Setting) -> dict:
         "params": setting.param_dict,
         "trial_seeds": trial_seeds(cid),
         # Scene cases get frozen initial states of their own from the generators.
-        "init_states": {"source": "generated", "file": None, "rows": list(range(TRIALS_PER_CASE))}
-        if scene else _libero_init_ref(task),
-        "artifacts": {},
+        "init_states": init_ref if scene else _libero_init_ref(task),
+        "artifacts": artifacts,
     }
 
 
@@ -76,7 +83,8 @@ def library_versions() -> dict[str, str]:
 def build_catalog(tasks: tuple[TaskRecord, ...] | None = None) -> dict[str, Any]:
     tasks = tasks or load_tasks()
     chosen = applicability.select(tasks, libero_bridge.SUITES)
-    cases = [_case(task, s) for s in tx.SETTINGS for task in chosen[s.id]]
+    scene_lock = scene_lock_mod.load()
+    cases = [_case(task, s, scene_lock) for s in tx.SETTINGS for task in chosen[s.id]]
     per_category = Counter(c["category"] for c in cases)
     header = {
         "benchmark": "LIBERO-VPro",

@@ -25,6 +25,8 @@ def add_parser(sub) -> None:
                         description="Rebuild in memory and compare with the catalog file; on a difference, name "
                         "the case and field and exit 1.")
     v.add_argument("--catalog", type=Path, default=None, help="catalog to check (default: catalog.json)")
+    v.add_argument("--artifacts", action="store_true",
+                   help="also check every scene artifact built in out/ against the sha256 the catalog records")
     v.set_defaults(run=run_verify)
     s = csub.add_parser("show", help="print one case's record", description="Print one case (or Normal baseline).")
     s.add_argument("case", help="case id, e.g. libero_goal-03/camera_staleness/wrist-delay2-v1")
@@ -45,6 +47,13 @@ def run_build(args) -> int:
 def run_verify(args) -> int:
     path = args.catalog or paths.catalog_path()
     committed, diffs = verify_catalog(path)
+    if getattr(args, "artifacts", False):
+        from ..scene.lock import check_built
+
+        artifact_diffs, checked, missing = check_built(committed)
+        diffs = diffs + artifact_diffs
+        print(f"artifacts: {checked} built file(s) checked against recorded sha256, {missing} not built in "
+              f"{paths.out_dir()}", file=sys.stderr)
     if diffs:
         for line in diffs[:MAX_SHOWN]:
             print(f"DIFFERS {line}", file=sys.stderr)

@@ -1,0 +1,90 @@
+"""The measured base scene of a task: what generators read to place things.
+
+Built once per task (a render-free LIBERO env of the base BDDL with LIBERO's own initial states):
+joint layout (to carry states into variants), where every object and fixture sits in each of the
+trial rows, the target's familiar position (mean over all of LIBERO's initial states) and the
+workspace (fixture name, offset of LIBERO's region coordinates).
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import libero_bridge
+from ..env import libero_init_states
+from ..seeding import TRIALS_PER_CASE
+from ..tasks import TaskRecord, get_task
+from . import sim
+from .bddl_doc import BaseBDDL, read_base
+
+
+@dataclass
+class BaseScene:
+    task: TaskRecord
+    bddl: BaseBDDL
+    rows: np.ndarray  # LIBERO's initial states (all of them)
+    slots: dict  # joint name -> JointSlot of the base model
+    layouts: list[dict]  # per trial row: instance -> {kind, pos, lo, hi}
+    mean_pos: dict[str, np.ndarray]  # instance -> mean world position over every LIBERO row
+    workspace: str  # fixture the regions are on ("main_table", "kitchen_table", "floor", ...)
+    workspace_offset: np.ndarray  # world position of LIBERO's region coordinate origin
+    object_classes: dict  # instance -> LIBERO object (for rotation, footprints)
+    site_joints: dict  # region or fixture name -> joint names that articulate it
+
+    def to_region_xy(self, world_xy) -> np.ndarray:
+        return np.asarray(world_xy, dtype=float) - self.workspace_offset[:2]
+
+    def footprint(self, instance: str, row: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        v = self.layouts[row][instance]
+        return v["lo"], v["hi"]
+
+
+@functools.lru_cache(maxsize=8)
+def base_scene(task_key: str) -> BaseScene:
+    task = get_task(task_key)
+    path = libero_bridge.bddl_path(task.suite, task.name)
+    bddl = read_base(path)
+    rows = libero_init_states(task)
+    env = sim.physics_env(str(path))
+    try:
+        slots = sim.joint_slots(env)
+        layouts, positions = [], {}
+        for k in range(len(rows)):
+            sim.load_state(env, rows[k])
+            layout = sim.body_layout(env)
+            if k < TRIALS_PER_CASE:
+                layouts.append(layout)
+            for name, v in layout.items():
+                positions.setdefault(name, []).append(v["pos"])
+        raw = sim.raw(env)
+        return BaseScene(
+            task=task, bddl=bddl, rows=rows, slots=slots, layouts=layouts,
+            mean_pos={k: np.mean(v, axis=0) for k, v in positions.items()},
+            workspace=raw.workspace_name, workspace_offset=np.asarray(raw.workspace_offset, dtype=float),
+            object_classes={**raw.objects_dict, **raw.fixtures_dict},
+            site_joints=_site_joints(env),
+        )
+    finally:
+        env.close()
+
+
+def _site_joints(env) -> dict[str, list[str]]:
+    """Joints that move each region site (drawers) and each articulated fixture (all its joints)."""
+    import mujoco
+
+    raw = sim.raw(env)
+    m = raw.sim.model._model
+    out = {}
+    for name, site in raw.object_sites_dict.items():
+        joints = [j for j in (getattr(site, "joints", None) or []) if j]
+        if joints:
+            out[name] = joints
+    for name, fixture in raw.fixtures_dict.items():
+        root = raw.sim.model.body_name2id(fixture.root_body)
+        joints = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)
+                  if int(m.body_rootid[m.jnt_bodyid[j]]) == root]
+        if joints:
+            out[name] = joints
+    return out

@@ -1,0 +1,300 @@
+"""`vpro build`: scene cases to files in out/, content-addressed, parallel, atomic, resumable.
+
+Layout (relative to out/):
+    scene/<task>/<category>/<setting>/            one directory per case (its id is the path)
+        <task_name>.bddl                           the variant, LIBERO's BDDL dialect
+        <task_name>.pruned_init                    10 frozen initial states, LIBERO's format
+        init_states.npz                            the same states as numpy
+        meta.json                                  input hash, the rule's choices, file hashes
+    objects/<name>/                                generated MJCF objects shared by cases
+    scene/artifact_hashes.json is not written here: hashes go to the committed lock file
+    (vpro_assets/scene/lock.py).
+
+A case is rebuilt only when its input hash changes (generator name and version, the case record,
+the base task's BDDL and initial states, the pool table, the toolkit's build version, library
+versions). Each case is written to a temporary directory and renamed into place, so an
+interrupted build leaves whole cases or none; a rerun resumes with the cases still missing.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import shutil
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import paths
+from ..atomic import write_bytes_atomic, write_text_atomic
+from ..errors import VProError
+from . import bddl_doc, sim, state_files
+from .context import GenContext
+
+log = logging.getLogger(__name__)
+
+BUILD_VERSION = 1
+META = "meta.json"
+
+
+def scene_root() -> Path:
+    return paths.out_dir() / "scene"
+
+
+def objects_root() -> Path:
+    return paths.out_dir() / "objects"
+
+
+def case_dir(case_id: str) -> Path:
+    return scene_root() / case_id
+
+
+def sha256_bytes(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def sha256_file(path: Path) -> str:
+    return sha256_bytes(Path(path).read_bytes())
+
+
+def canonical(obj) -> str:
+    return json.dumps(obj, sort_keys=True, indent=1, ensure_ascii=False) + "\n"
+
+
+@dataclass
+class CaseResult:
+    case_id: str
+    status: str  # "built", "unchanged", "failed"
+    seconds: float = 0.0
+    stages: dict = field(default_factory=dict)
+    error: str = ""
+    files: dict = field(default_factory=dict)  # relative path -> sha256
+
+
+def input_hash(case: dict, generator, base) -> str:
+    from . import pool as pool_mod
+
+    from ..catalog import library_versions
+
+    task = base.task
+    from .. import libero_bridge
+
+    h = hashlib.sha256()
+    for part in (
+        f"build-v{BUILD_VERSION}", f"{generator.name}-v{generator.version}",
+        canonical({k: case[k] for k in ("id", "setting", "params", "trial_seeds", "task")}),
+        libero_bridge.bddl_path(task.suite, task.name).read_bytes().hex(),
+        libero_bridge.init_state_path(task.suite, task.name).read_bytes().hex(),
+        canonical({k: v.to_json() for k, v in pool_mod.pool().items()}),
+        canonical(library_versions()),
+        (Path(bddl_doc.TEMPLATE_DIR) / bddl_doc.SCENE_TEMPLATE).read_text(),
+        (Path(bddl_doc.TEMPLATE_DIR) / bddl_doc.REGION_TEMPLATE).read_text(),
+    ):
+        h.update(part.encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _is_current(case_id: str, key: str) -> dict | None:
+    meta_path = case_dir(case_id) / META
+    if not meta_path.is_file():
+        return None
+    try:
+        meta = json.loads(meta_path.read_text())
+    except json.JSONDecodeError:
+        return None
+    if meta.get("input_hash") != key:
+        return None
+    for rel, digest in meta.get("files", {}).items():
+        path = case_dir(case_id) / rel
+        if not path.is_file() or sha256_file(path) != digest:
+            return None
+    return meta
+
+
+def ensure_objects(generated, case_id: str) -> dict[str, Path]:
+    """Write (once, atomically) and register the generated objects a case needs."""
+    from ..object_registry import register_mjcf_object
+
+    out = {}
+    for obj in generated:
+        final = objects_root() / obj.name
+        xml = final / f"{obj.name}.xml"
+        if obj.shared:  # the producer caches, lays out and publishes its files itself
+            xml = Path(obj.write(objects_root()))
+        elif not xml.is_file():
+            tmp = objects_root() / f".tmp-{obj.name}-{os.getpid()}"
+            shutil.rmtree(tmp, ignore_errors=True)
+            written = obj.write(tmp)
+            if written.name != xml.name:
+                raise VProError(f"case {case_id}: generated object {obj.name} wrote {written.name}, expected {xml.name}")
+            try:
+                os.replace(tmp, final)
+            except OSError:  # another worker won the race: its copy has the same bytes
+                shutil.rmtree(tmp, ignore_errors=True)
+        register_mjcf_object(obj.name, xml, template=obj.template)
+        out[obj.name] = xml
+    return out
+
+
+def _bddl_name(task) -> str:
+    return f"{task.name}.bddl"
+
+
+def build_case(case: dict, force: bool = False) -> CaseResult:
+    """Build one scene case (or confirm it is current)."""
+    import generators
+    from .base_scene import base_scene
+    from .init_gen import trial_state
+
+    started = time.perf_counter()
+    cid = case["id"]
+    generator = generators.generator_for(case)
+    stages: dict[str, float] = {}
+    t = time.perf_counter()
+    base = base_scene(case["task"])
+    stages["base_scene"] = time.perf_counter() - t
+    key = input_hash(case, generator, base)
+    if not force:
+        meta = _is_current(cid, key)
+        if meta is not None:
+            return CaseResult(cid, "unchanged", time.perf_counter() - started, stages, files=meta["files"])
+
+    t = time.perf_counter()
+    ctx = GenContext(case=case, base=base)
+    variant = generator.fn(ctx)
+    ensure_objects(variant.generated_objects, cid)
+    stages["generate"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    text = bddl_doc.render_variant(
+        base.bddl, case_id=cid, generator=f"{generator.name}-v{generator.version}", base_task=case["task"],
+        summary=variant.summary, objects=variant.objects, fixtures=variant.fixtures, regions=variant.regions,
+        init=variant.init)
+    bddl_doc.check_variant(text, base.bddl, cid)
+    stages["bddl"] = time.perf_counter() - t
+
+    tmp = scene_root() / f".tmp-{cid.replace('/', '__')}-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    try:
+        bddl_path = tmp / _bddl_name(base.task)
+        bddl_path.write_text(text)
+        t = time.perf_counter()
+        env = sim.physics_env(str(bddl_path))
+        stages["variant_env"] = time.perf_counter() - t
+        t = time.perf_counter()
+        try:
+            rows = [trial_state(env, variant, base.rows[k], base.slots, k) for k in range(len(case["trial_seeds"]))]
+        finally:
+            env.close()
+        stages["settle"] = time.perf_counter() - t
+        states = np.stack(rows)
+        files = {
+            _bddl_name(base.task): text.encode(),
+            f"{base.task.name}.pruned_init": state_files.libero_init_bytes(states),
+            "init_states.npz": state_files.npz_bytes(states),
+        }
+        for name, data in files.items():
+            (tmp / name).write_bytes(data)
+        hashes = {name: sha256_bytes(data) for name, data in files.items()}
+        meta = {
+            "case": cid, "input_hash": key, "generator": generator.name, "generator_version": generator.version,
+            "build_version": BUILD_VERSION, "summary": variant.summary, "details": dict(variant.details),
+            "added": list(variant.added),
+            "generated_objects": {o.name: {"template": o.template} for o in variant.generated_objects},
+            "init_states": {"rows": len(rows), "width": int(states.shape[1])},
+            "files": hashes,
+        }
+        (tmp / META).write_text(canonical(meta))
+        final = case_dir(cid)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        if final.exists():
+            trash = final.with_name(f".old-{final.name}-{os.getpid()}")
+            os.replace(final, trash)
+            os.replace(tmp, final)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            os.replace(tmp, final)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return CaseResult(cid, "built", time.perf_counter() - started, stages, files=hashes)
+
+
+def _worker_init() -> None:
+    os.environ.setdefault("LP_NUM_THREADS", "1")
+    logging.getLogger("robosuite").setLevel(logging.ERROR)
+
+
+def _build_group(cases: list[dict], force: bool) -> list[CaseResult]:
+    """Build the cases of one task in one process (the base scene is measured once)."""
+    out = []
+    for case in cases:
+        try:
+            out.append(build_case(case, force))
+        except VProError as exc:
+            out.append(CaseResult(case["id"], "failed", error=str(exc)))
+        except Exception as exc:  # a crash inside LIBERO/MuJoCo: report it against the case
+            out.append(CaseResult(case["id"], "failed", error=f"case {case['id']}: {type(exc).__name__}: {exc}"))
+    return out
+
+
+def clean_partial() -> None:
+    """Remove temporary directories an interrupted build left behind."""
+    for root in (scene_root(), objects_root()):
+        if root.is_dir():
+            for tmp in list(root.rglob(".tmp-*")) + list(root.rglob(".old-*")):
+                shutil.rmtree(tmp, ignore_errors=True)
+
+
+def build(cases: list[dict], jobs: int = 1, force: bool = False, progress: bool = True) -> list[CaseResult]:
+    """Build scene cases; other cases in the selection are ignored (they have no scene artifacts)."""
+    from tqdm import tqdm
+
+    cases = [c for c in cases if c.get("level") == "scene"]
+    clean_partial()
+    groups: dict[str, list[dict]] = {}
+    for c in cases:
+        groups.setdefault(c["task"], []).append(c)
+    results: list[CaseResult] = []
+    bar = tqdm(total=len(cases), unit="case", desc="vpro build", disable=not progress)
+    try:
+        if jobs <= 1 or len(groups) <= 1:
+            for group in groups.values():
+                for case in group:
+                    results += _build_group([case], force)
+                    bar.update(1)
+        else:
+            # One task per submission, so each worker measures a base scene once per task it gets.
+            with ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init) as pool:
+                futures = [pool.submit(_build_group, g, force) for g in groups.values()]
+                for fut in as_completed(futures):
+                    done = fut.result()
+                    results += done
+                    bar.update(len(done))
+    finally:
+        bar.close()
+    order = {c["id"]: i for i, c in enumerate(cases)}
+    return sorted(results, key=lambda r: order[r.case_id])
+
+
+def built_case(case_id: str) -> dict:
+    """Paths of a built case; registers its generated objects with LIBERO."""
+    d = case_dir(case_id)
+    meta_path = d / META
+    if not meta_path.is_file():
+        raise VProError(f"case {case_id}: not built (no {meta_path}); run `vpro build --select {case_id}`")
+    meta = json.loads(meta_path.read_text())
+    from ..object_registry import register_mjcf_object
+
+    for name, info in meta.get("generated_objects", {}).items():
+        register_mjcf_object(name, objects_root() / name / f"{name}.xml", template=info.get("template"))
+    bddl = next(p for p in meta["files"] if p.endswith(".bddl"))
+    init = next(p for p in meta["files"] if p.endswith(".pruned_init"))
+    return {"dir": d, "bddl": d / bddl, "init_states": d / init, "init_states_npz": d / "init_states.npz",
+            "meta": meta}

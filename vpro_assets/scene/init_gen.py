@@ -1,0 +1,185 @@
+"""Frozen initial states of a scene case: sampled with the case's seeds, settled, accepted.
+
+Trial k of a scene case starts from LIBERO's initial state k of the base task (so it differs from
+the Normal trial k only by the variation), carried into the variant's model by joint name. The
+generator's placements and joint settings are then applied with the random stream
+`seeding.rng(case_id, k, "scene-init-<attempt>")`, every moved object is lowered onto its support,
+and the scene is settled for one second of zero actions. The state is accepted only if
+- every movable object rests (speed below 2 cm/s and 0.5 rad/s),
+- no two scene bodies interpenetrate deeper than 5 mm,
+- no object's lowest point ends more than 5 cm below the surface most objects stand on (it
+  left the table),
+- the task's goal is not already satisfied, and
+- one more second of zero actions from the stored state moves no object more than 1 cm (the
+  check `vpro validate` repeats).
+A rejected draw is redrawn (next attempt) up to MAX_ATTEMPTS times; then InitStateError names the
+case, the trial and the reasons.
+"""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+from .. import seeding
+from ..errors import VProError
+from . import sim
+from .variant import SceneVariant
+
+log = logging.getLogger(__name__)
+
+MAX_ATTEMPTS = 6
+MAX_DRAWS = 200  # position draws per placement and attempt
+SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
+
+
+class InitStateError(VProError):
+    """No acceptable initial state for a trial of a case."""
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
+INVERT = np.array([0.0, 1.0, 0.0, 0.0])  # 180 degrees about the world x axis (w, x, y, z)
+
+
+def _axis_quat(axis: str, angle: float) -> np.ndarray:
+    q = np.zeros(4)
+    q[0], q[{"x": 1, "y": 2, "z": 3}[axis]] = math.cos(angle / 2), math.sin(angle / 2)
+    return q
+
+
+def default_quat(obj, rng: np.random.Generator) -> np.ndarray:
+    """The orientation LIBERO's region samplers give a fresh object of this class: its `rotation`
+    (a range about `rotation_axis`, or a dict of ranges per axis composed in order), drawn from
+    the trial's stream instead of the global one."""
+    rot = obj.rotation
+    if isinstance(rot, dict):
+        q = np.array([1.0, 0.0, 0.0, 0.0])
+        for axis, rng_range in rot.items():
+            q = _quat_mul(_axis_quat(axis, rng.uniform(min(rng_range), max(rng_range))), q)
+        return q
+    angle = rng.uniform(min(rot), max(rot)) if isinstance(rot, (tuple, list)) else float(rot or 0.0)
+    return _axis_quat(getattr(obj, "rotation_axis", "z") or "z", angle)
+
+
+def _support_height(layout: dict) -> float:
+    """Height of the surface the scene's objects stand on: the median of their lowest points."""
+    lows = [v["lo"][2] for v in layout.values() if v["kind"] == "object"]
+    return float(np.median(lows))
+
+
+def _clear(xy: np.ndarray, radius: float, others: list[tuple[np.ndarray, np.ndarray]], margin: float) -> bool:
+    for lo, hi in others:
+        dx = max(lo[0] - xy[0], 0.0, xy[0] - hi[0])
+        dy = max(lo[1] - xy[1], 0.0, xy[1] - hi[1])
+        if math.hypot(dx, dy) < radius + margin:
+            return False
+    return True
+
+
+def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]) -> None:
+    """Apply the variant's placements to the loaded state (positions, poses, heights)."""
+    data = sim.raw(env).sim.data
+    raw = sim.raw(env)
+    layout = sim.body_layout(env)
+    support = _support_height({k: v for k, v in layout.items() if k not in added})
+    pending = {p.instance for p in variant.placements}
+    for p in variant.placements:
+        obj = raw.objects_dict[p.instance]
+        joint = obj.joints[-1]
+        qpos = np.array(data.get_joint_qpos(joint))
+        if p.instance in added:
+            qpos[3:] = default_quat(obj, rng)
+        if p.invert:
+            qpos[3:] = _quat_mul(INVERT, qpos[3:])
+        data.set_joint_qpos(joint, qpos)
+        raw.sim.forward()
+        own = sim.body_layout(env)[p.instance]
+        radius = 0.5 * math.hypot(own["hi"][0] - own["lo"][0], own["hi"][1] - own["lo"][1])
+        others = [(v["lo"], v["hi"]) for k, v in sim.body_layout(env).items()
+                  if k != p.instance and k not in pending]
+        if p.keep_xy:
+            xy = qpos[:2].copy()
+        else:
+            anchor = np.asarray(p.anchor, dtype=float)
+            for _ in range(MAX_DRAWS):
+                r = rng.uniform(p.r_min, p.r_max)
+                theta = rng.uniform(0, 2 * math.pi)
+                xy = anchor + r * np.array([math.cos(theta), math.sin(theta)])
+                # The object's origin need not be its footprint's centre.
+                centre = xy + (own["lo"][:2] + own["hi"][:2]) / 2 - qpos[:2]
+                if _clear(centre, radius, others, p.margin):
+                    break
+            else:
+                raise InitStateError(f"no free spot for {p.instance} within {p.r_max:.2f} m of "
+                                     f"({anchor[0]:.3f}, {anchor[1]:.3f})")
+        qpos[:2] = xy
+        data.set_joint_qpos(joint, qpos)
+        raw.sim.forward()
+        lo = sim.body_layout(env)[p.instance]["lo"][2]
+        qpos[2] += support + SUPPORT_GAP - lo
+        data.set_joint_qpos(joint, qpos)
+        data.set_joint_qvel(joint, np.zeros(6))
+        raw.sim.forward()
+        pending.discard(p.instance)
+
+
+def _problems(env, success: bool) -> list[str]:
+    out = []
+    layout = sim.body_layout(env)
+    lows = {n: v["lo"][2] for n, v in layout.items() if v["kind"] == "object"}
+    surface = float(np.median(list(lows.values())))
+    out += [f"{n} left the table (its lowest point is {surface - z:.3f} m below the surface)"
+            for n, z in lows.items() if z < surface - sim.DROP_TOL]
+    out += [f"{n} still moving ({lin:.3f} m/s, {ang:.2f} rad/s)" for n, lin, ang in sim.moving_objects(env)]
+    out += [f"{a} and {b} interpenetrate by {d * 1000:.1f} mm" for a, b, d in sim.penetrations(env)]
+    if success:
+        out.append("the goal is already satisfied")
+    return out
+
+
+def drift(env, steps: int = sim.SETTLE_STEPS) -> list[str]:
+    """Objects that move more than DRIFT_TOL (or do not rest) in `steps` zero-action steps."""
+    before = sim.free_object_state(env)
+    sim.settle(env, steps)
+    after = sim.free_object_state(env)
+    out = [f"{n} moved {np.linalg.norm(after[n][0][:3] - q[:3]) * 1000:.1f} mm"
+           for n, (q, _) in before.items() if np.linalg.norm(after[n][0][:3] - q[:3]) > sim.DRIFT_TOL]
+    out += [f"{n} still moving ({lin:.3f} m/s)" for n, lin, _ in sim.moving_objects(env)]
+    return out
+
+
+def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: dict, trial: int) -> np.ndarray:
+    """One accepted, settled initial state (a LIBERO state row) for `trial` of the case."""
+    added = set(variant.added)
+    reasons: list[str] = []
+    for attempt in range(MAX_ATTEMPTS):
+        rng = seeding.rng(variant.case_id, trial, f"scene-init-{attempt}")
+        row = sim.map_state(base_row, base_slots, env)
+        sim.load_state(env, row)
+        raw = sim.raw(env)
+        for js in variant.joints:
+            raw.sim.data.set_joint_qpos(js.joint, rng.uniform(js.low, js.high))
+        raw.sim.forward()
+        try:
+            _place(env, variant, rng, added)
+        except InitStateError as exc:
+            reasons.append(f"attempt {attempt}: {exc}")
+            continue
+        sim.settle(env)
+        problems = _problems(env, bool(raw._check_success()))
+        if not problems:
+            state = sim.flattened_state(env)
+            sim.load_state(env, state)
+            problems = [f"after storing: {p}" for p in drift(env)]
+            if not problems:
+                return state
+        reasons.append(f"attempt {attempt}: " + "; ".join(problems[:4]))
+    raise InitStateError(f"case {variant.case_id}: trial {trial} has no initial state that settles after "
+                         f"{MAX_ATTEMPTS} attempts ({' | '.join(reasons[-3:])})")

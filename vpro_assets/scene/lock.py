@@ -1,0 +1,67 @@
+"""Recorded artifact hashes of built scene cases: `scene_artifacts.lock.json` (committed).
+
+Why a lock file: the catalog must rebuild byte for byte on a clean clone, where building every
+scene case (about an hour on two cores) is not affordable. So `vpro build` records the sha256 of
+every file it writes here; `vpro catalog build` reads this file (never out/) to fill each scene
+case's `artifacts` and `init_states.file`; `vpro catalog verify` checks the catalog against a
+rebuild always, and with `--artifacts` also checks every file built in out/ against the recorded
+hashes (files not built are reported as such, not as errors). A full check is
+`vpro build -j 2 && vpro catalog verify --artifacts` (see README).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from .. import paths
+from ..atomic import write_text_atomic
+
+LOCK_NAME = "scene_artifacts.lock.json"
+
+
+def lock_path() -> Path:
+    return paths.REPO_ROOT / LOCK_NAME
+
+
+def load() -> dict[str, dict]:
+    path = lock_path()
+    if not path.is_file():
+        return {}
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def record(results) -> None:
+    """Merge the hashes of built (or confirmed unchanged) cases into the lock file."""
+    if not results:
+        return
+    data = load()
+    for r in results:
+        data[r.case_id] = {"files": dict(sorted(r.files.items()))}
+    write_text_atomic(lock_path(), json.dumps(data, sort_keys=True, indent=1) + "\n")
+
+
+def case_artifacts(case_id: str, entry: dict) -> dict:
+    """The catalog's `artifacts` of a case: path relative to out/ -> sha256."""
+    return {f"scene/{case_id}/{name}": digest for name, digest in sorted(entry["files"].items())}
+
+
+def init_file(case_id: str, entry: dict) -> str | None:
+    return next((f"scene/{case_id}/{n}" for n in sorted(entry["files"]) if n.endswith(".pruned_init")), None)
+
+
+def check_built(catalog: dict) -> tuple[list[str], int, int]:
+    """(differences, files checked, files not built) of out/ against the catalog's artifact hashes."""
+    import hashlib
+
+    diffs, checked, missing = [], 0, 0
+    for case in catalog["cases"]:
+        for rel, digest in case.get("artifacts", {}).items():
+            path = paths.out_dir() / rel
+            if not path.is_file():
+                missing += 1
+                continue
+            checked += 1
+            actual = hashlib.sha256(path.read_bytes()).hexdigest()
+            if actual != digest:
+                diffs.append(f"case {case['id']}: {rel} has sha256 {actual[:16]}..., the catalog records {digest[:16]}...")
+    return diffs, checked, missing

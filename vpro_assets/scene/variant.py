@@ -1,0 +1,67 @@
+"""What a scene generator returns: a pure description of one case's scene variant.
+
+A generator reads the task and the measured base scene and returns a `SceneVariant`: the BDDL
+edits (objects, fixtures, regions, init predicates), the generated MJCF objects it needs, and how
+each trial's initial state differs from LIBERO's initial state of the same trial index (objects
+placed by a stated rule, a pose flipped, an articulation set to its other state). Simulation and
+file writing happen elsewhere (`init_gen`, `build`), so a generator is a pure function of its
+inputs and can be unit-tested without MuJoCo.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Mapping
+
+from .bddl_doc import Region
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where one movable object goes in every trial: on a ring around `anchor` (world xy), at a
+    radius drawn in [r_min, r_max], clear of every other object by `margin`."""
+
+    instance: str
+    anchor: tuple[float, float]
+    r_min: float = 0.0
+    r_max: float = 0.01
+    margin: float = 0.015
+    invert: bool = False  # turned upside down (180 degrees about the world x axis)
+    keep_xy: bool = False  # keep LIBERO's xy of this trial (only the pose or height changes)
+
+
+@dataclass(frozen=True)
+class JointSetting:
+    """An articulation set to a value drawn uniformly from [low, high] in every trial."""
+
+    joint: str
+    low: float
+    high: float
+
+
+@dataclass(frozen=True)
+class GeneratedObject:
+    """An MJCF object the case needs registered under `name` (see vpro_assets.object_registry).
+    `write(directory) -> xml_path` writes its files deterministically."""
+
+    name: str
+    write: Callable[[Path], Path] = field(compare=False)
+    template: str | None = None  # LIBERO object whose placement attributes it copies
+    fingerprint: str = ""  # what its content depends on (for the build's input hash)
+    shared: bool = False  # write(objects_root) manages its own caching and atomic layout
+
+
+@dataclass
+class SceneVariant:
+    case_id: str
+    generator: str
+    summary: str  # one sentence for the BDDL header and the gallery
+    objects: list[tuple[str, str]]  # full (instance, category) list of the variant
+    fixtures: list[tuple[str, str]]
+    regions: list[Region] = field(default_factory=list)  # added regions
+    init: list[str] = field(default_factory=list)  # full init predicate list
+    placements: list[Placement] = field(default_factory=list)
+    joints: list[JointSetting] = field(default_factory=list)
+    generated_objects: list[GeneratedObject] = field(default_factory=list)
+    added: list[str] = field(default_factory=list)  # instances the variant adds (distractors, visual-only)
+    details: Mapping[str, object] = field(default_factory=dict)  # the rule's choices, recorded in meta.json
