@@ -16,6 +16,7 @@ COMMAND_MODULES = (
     "vpro_assets.commands.info",
     "vpro_assets.commands.catalog_cmd",
     "vpro_assets.commands.env_cmd",
+    "vpro_assets.commands.scene_cmd",
     "vpro_assets.commands.pack_cmd",
     "vpro_assets.commands.eval_cmd",
 )
