@@ -19,6 +19,7 @@ COMMAND_MODULES = (
     "vpro_assets.commands.scene_cmd",
     "vpro_assets.commands.pack_cmd",
     "vpro_assets.commands.eval_cmd",
+    "vpro_assets.commands.report_cmd",
 )
 
 
