@@ -1,0 +1,97 @@
+"""Fast checks of the scene machinery: BDDL templates, generator registry, pool, state files."""
+from __future__ import annotations
+
+import zipfile
+
+import numpy as np
+import pytest
+
+from vpro_assets import libero_bridge
+from vpro_assets.errors import VProError
+from vpro_assets.init_states import read_init_states
+from vpro_assets.scene import bddl_doc, state_files
+from vpro_assets.tasks import get_task
+
+CASE = "libero_spatial-00/task_relevant_distractors/same_category-v1"
+
+
+def _base():
+    t = get_task("libero_spatial-00")
+    return bddl_doc.read_base(libero_bridge.bddl_path(t.suite, t.name))
+
+
+def _render(base, **kw):
+    args = dict(case_id=CASE, generator="test", base_task="libero_spatial-00", summary="unchanged",
+                objects=base.objects, fixtures=base.fixtures, regions=[], init=base.init)
+    args.update(kw)
+    return bddl_doc.render_variant(base, **args)
+
+
+def test_unchanged_variant_parses_and_keeps_language_and_goal():
+    base = _base()
+    parsed = bddl_doc.check_variant(_render(base), base, CASE)
+    assert parsed["objects"] == base.parsed["objects"]
+    assert parsed["initial_state"] == base.parsed["initial_state"]
+
+
+def test_added_object_and_region_parse():
+    base = _base()
+    region = bddl_doc.Region("vpro_distractor_region", "main_table", (0.1, 0.1, 0.12, 0.12))
+    text = _render(base, objects=base.objects + [("white_bowl_1", "white_bowl")], regions=[region],
+                   init=base.init + ["(On white_bowl_1 main_table_vpro_distractor_region)"])
+    parsed = bddl_doc.check_variant(text, base, CASE)
+    assert parsed["objects"]["white_bowl"] == ["white_bowl_1"]
+    assert parsed["regions"]["main_table_vpro_distractor_region"]["ranges"] == [[0.1, 0.1, 0.12, 0.12]]
+
+
+def test_changed_goal_is_refused_naming_the_case():
+    base = _base()
+    text = _render(base).replace("(On akita_black_bowl_1 plate_1)", "(On akita_black_bowl_2 plate_1)")
+    with pytest.raises(bddl_doc.BDDLError, match=CASE):
+        bddl_doc.check_variant(text, base, CASE)
+
+
+def test_template_with_missing_field_names_case_and_field(tmp_path):
+    (tmp_path / bddl_doc.SCENE_TEMPLATE).write_text("(define (problem ${problem}) ${language} ${regions} ${fixtures} "
+                                                    "${objects} ${obj_of_interest} ${init} ${goal} ${colour})")
+    with pytest.raises(bddl_doc.BDDLError, match=rf"{CASE}.*field 'colour'"):
+        _render(_base(), template_dir=tmp_path)
+
+
+def test_template_lacking_a_section_is_refused(tmp_path):
+    (tmp_path / bddl_doc.SCENE_TEMPLATE).write_text("(define (problem ${problem}) ${language} ${objects})")
+    with pytest.raises(bddl_doc.BDDLError, match=rf"{CASE}.*lacks field\(s\) regions, fixtures"):
+        _render(_base(), template_dir=tmp_path)
+
+
+def test_unknown_object_names_case():
+    from vpro_assets.scene import pool
+
+    with pytest.raises(VProError, match=rf"{CASE}: unknown object 'golden_teapot'"):
+        pool.get("golden_teapot", CASE)
+
+
+def test_generator_registry_refuses_duplicates():
+    import generators
+
+    reg = generators.registry()
+    assert len(reg) == 20  # 6 distractors + 2 preconditions + 12 geometry
+    name = "task_relevant_distractors/same_color"
+    with pytest.raises(generators.GeneratorError, match="already registered"):
+        generators.register(name)(lambda ctx: None)
+
+
+def test_libero_init_format_matches_libero_and_roundtrips(tmp_path):
+    t = get_task("libero_spatial-00")
+    src = libero_bridge.init_state_path(t.suite, t.name)
+    states = read_init_states(src)
+    data = state_files.libero_init_bytes(states)
+    out = tmp_path / "x.pruned_init"
+    out.write_bytes(data)
+    assert np.array_equal(read_init_states(out), states)
+    with zipfile.ZipFile(src) as a, zipfile.ZipFile(out) as b:  # the pickle is byte-identical to LIBERO's own
+        assert a.read("archive/data.pkl") == b.read("archive/data.pkl")
+        assert b.read("archive/version") == b"3\n"
+    assert state_files.libero_init_bytes(states) == data
+    (tmp_path / "x.npz").write_bytes(state_files.npz_bytes(states))
+    assert np.array_equal(state_files.read_npz(tmp_path / "x.npz"), states)
