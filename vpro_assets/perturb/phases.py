@@ -12,8 +12,8 @@ schedules such as "before grasp" have one well-defined boundary. Detection, per 
 - transport starts once the target is grasped and lifted `LIFT_M` above its height at grasp onset;
 - pre_placement starts during transport when the target is within `PRE_PLACE_XY_M` of the
   receptacle horizontally (tasks with a receptacle only);
-- placed (placement onset, an event) is the first step after transport where the target touches
-  the receptacle, or is released (no finger contact) within the pre-placement radius.
+- placed (placement onset, an event) is the first step in pre_placement where the target touches
+  the receptacle or is released (no finger contact).
 
 Every step is logged; `timeline()` returns the (step, phase) changes and the two onsets.
 """
@@ -111,7 +111,7 @@ class PhaseTracker:
                     on = self._touch(g1, g2, obj_geoms, np.asarray(ent.receptacle.geoms, np.int32))
                     released = not (self._touch(g1, g2, ent.left_finger_geoms, obj_geoms)
                                     or self._touch(g1, g2, ent.right_finger_geoms, obj_geoms))
-                    if on or (self._phase == 3 and released):
+                    if self._phase == 3 and (on or released):
                         self._phase = 4
                         self.placement_onset = step
         self.history.append(self.phase)
