@@ -145,6 +145,9 @@ class ResultsStore:
         """Commit one episode; returns False if a result for it already exists (never overwritten)."""
         if row.get("status") not in STATUSES:
             raise VProError(f"episode row status must be one of {STATUSES}, got {row.get('status')!r}")
+        row = dict(row)
+        row.setdefault("attempts", 1)
+        row.setdefault("finished_at", utc_now())
         values = []
         for col in EPISODE_COLUMNS:
             value = row.get(col)
