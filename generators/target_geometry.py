@@ -44,7 +44,7 @@ log = logging.getLogger(__name__)
 GENERATOR = "target_geometry"
 GENERATOR_VERSION = 1
 SEVERITIES = (1, 2, 3)
-REFINE_FRACTION = 1.0 / 40.0  # meshes refined to edges under this fraction of the object's size
+REFINE_FRACTION = 1.0 / 20.0  # meshes refined to edges under this fraction of the object's size
 COACD_SIMPLIFY_FRACTION = 1.0 / 250.0  # the solid given to coacd is simplified within this
 # The object's up axis in its own mesh frame once LIBERO places it (measured from LIBERO's scenes
 # with scripts/measure_up_axes.py: every target category of a geometry case).
@@ -194,11 +194,25 @@ def generate_deformed_object(
 
 
 def _publish(staging: Path, final: Path) -> None:
-    """Swap the finished staging folder into place (the old folder is removed afterwards)."""
+    """Swap the finished staging folder into place (the old folder is removed afterwards).
+
+    Safe against another process publishing the same object at the same time: its files have the
+    same bytes, so whichever folder ends up in place is the right one.
+    """
     old = final.parent / f".old-{final.name}-{os.getpid()}"
-    if final.exists():
-        os.replace(final, old)
-    os.replace(staging, final)
+    for _attempt in range(3):
+        try:
+            if final.exists():
+                os.replace(final, old)
+            os.replace(staging, final)
+            break
+        except OSError:  # `final` reappeared (another worker published it): try again
+            continue
+    else:
+        if (final / "record.json").is_file():  # another worker's identical object is in place
+            shutil.rmtree(staging, ignore_errors=True)
+        else:
+            raise OSError(f"could not publish {staging} as {final}")
     shutil.rmtree(old, ignore_errors=True)
 
 

@@ -27,6 +27,7 @@ log = logging.getLogger(__name__)
 
 BOOLEAN_ENGINE = "manifold3d"
 LEVEL_SET_PITCH_FRACTION = 1.0 / 90.0  # voxel pitch as a fraction of the part's largest extent
+LEVEL_SET_SIGMA = 1.0  # Gaussian smoothing of the occupancy, in voxels (removes voxel terraces)
 MIN_LEVEL_SET_PITCH = 0.0008  # metres
 LEVEL_SET_SIMPLIFY = 0.5  # the remeshed surface is simplified within this fraction of the pitch
 
@@ -120,7 +121,7 @@ def level_set_remesh(name: str, vertices: np.ndarray, faces: np.ndarray, pitch: 
     occupancy[idx[:, 0], idx[:, 1], idx[:, 2]] = True
     occupancy = ndimage.binary_closing(occupancy, iterations=1)
     occupancy = ndimage.binary_fill_holes(occupancy)
-    field = ndimage.gaussian_filter(occupancy.astype(np.float64), sigma=0.7, mode="constant") - 0.5
+    field = ndimage.gaussian_filter(occupancy.astype(np.float64), sigma=LEVEL_SET_SIGMA, mode="constant") - 0.5
     if field.max() <= 0:
         raise MeshError(f"mesh part {name!r}: nothing left after voxelising at pitch {pitch:.4f} m")
     sdf = _trilinear(field, origin, pitch)
