@@ -16,6 +16,7 @@ simulator raises becomes SimulatorError (an infrastructure error, retried).
 """
 from __future__ import annotations
 
+import atexit
 import hashlib
 import importlib
 import importlib.util
@@ -134,6 +135,9 @@ def _close_quietly(env) -> None:
 def release_cached_envs() -> None:
     for key in list(_ENV_CACHE):
         _close_quietly(_ENV_CACHE.pop(key))
+
+
+atexit.register(release_cached_envs)  # close GL contexts while the GL library is still loaded
 
 
 class CaseEnv:
