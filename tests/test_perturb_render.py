@@ -196,3 +196,43 @@ def test_physics_unchanged_every_setting(scene, clean_states, setting_id):
         pytest.skip(f"{setting_id} does not apply to {task.key} (no case in the catalog)")
     _, got = rollout(env, state, build_pipeline(case_of(setting_id, task), task))
     assert np.array_equal(got, clean_states)
+
+
+def test_prediction_feedback_with_a_frame_predicting_policy(scene):
+    """EchoPredictor predicts each next frame as its observation stamped with its call count; after
+    the first observation the policy sees exactly its own predictions."""
+    from vpro_assets.perturb import EchoPredictor, FramePredictingPolicy
+    from vpro_assets.perturb.prediction import stamp
+
+    env, task, state = scene
+    case = case_of("vpro/prediction_reality_divergence/recursive_self_prediction-v1", task)
+    wrapped = PerturbedEnv(env, case, task)
+    policy = EchoPredictor(lambda obs: NOOP_ACTION, CAMERAS)
+    assert isinstance(policy, FramePredictingPolicy)
+    obs = wrapped.reset(trial=0, init_state=state)
+    first = {c: obs[f"{c}_image"].copy() for c in CAMERAS}
+    for k in (1, 2):
+        out = policy(obs)
+        obs, *_ = wrapped.step(out.actions, predicted_frames=out.predicted_frames)
+        for c in CAMERAS:
+            assert np.array_equal(obs[f"{c}_image"], stamp(first[c], 1) if k == 1 else stamp(stamp(first[c], 1), 2))
+    wrapped.pipeline.detach()
+
+
+def test_observer_consumes_a_chunk_of_predicted_frames(scene):
+    env, task, state = scene
+    case = case_of("vpro/prediction_reality_divergence/recursive_self_prediction-v1", task)
+    raw = restart(env, state)
+    observer = wrap_case_env(env, case, trial=0)
+    observer.on_reset(raw)
+    chunk = np.stack([np.full((RES, RES, 3), v, np.uint8) for v in (10, 20)])
+    observer.feed_predicted({"agentview": chunk})
+    seen = []
+    for _ in range(3):
+        obs, *_ = env.step(NOOP_ACTION)
+        observer.on_step(obs)
+        images = observer.policy_images(obs, 0)
+        seen.append(int(images["agentview"][0, 0, 0]))
+        assert np.array_equal(images["robot0_eye_in_hand"], raw["robot0_eye_in_hand_image"])  # no prediction: first frame
+    assert seen == [10, 20, 20]  # one frame per step, then the last shown frame stays
+    observer.pipeline.detach()

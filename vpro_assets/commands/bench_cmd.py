@@ -128,7 +128,7 @@ def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolutio
                 rows.append({"setting": s.id, "category": s.category, "task": key, "steps": steps,
                              "resolution": resolution, "ratio": round(ratio, 4),
                              "clean_step_ms": round(clean_med * 1000, 2), "perturbed_step_ms": round(pert_med * 1000, 2),
-                             "needs_extra_render": extra, "mask_renders_per_step": round(masks / steps, 3),
+                             "needs_extra_render": extra, "mask_renders_per_step": round(masks / (steps + 1), 3),
                              "active_steps": active, "goal": goal, "meets_goal": ratio <= goal})
                 previous = following
                 if progress:
