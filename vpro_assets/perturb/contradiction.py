@@ -82,6 +82,11 @@ class Contradiction(Perturbation):
     def render_edits(self):
         return {self.camera: self.edit}
 
+    def apply(self, frames, step) -> None:
+        # The frame was drawn edited by the env's own render pass; only record it.
+        if self.camera in frames:
+            step.note(self.camera, f"scene edit: {EDITS[self.attribute]}")
+
     def _target_width(self) -> float:
         m = self.entities.model
         return max(float(np.linalg.norm(m.geom_aabb[g][3:5])) * 2 for g in self.entities.target.geoms)
