@@ -43,6 +43,8 @@ def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, c
         row = by_category[cat.id]
         if cat.level == tx.SCENE:
             assert row["status"] == "unavailable" and "not built; run vpro build" in row["error"]
+        elif cat.id == "prediction_reality_divergence":
+            assert row["status"] == "unavailable" and "does not predict frames" in row["error"]
         else:
             assert row["status"] in ("ok", "error"), row
             if row["status"] == "error":

@@ -110,3 +110,45 @@ def test_unbuilt_scene_case_is_unavailable_not_a_crash(tmp_path, monkeypatch):
     case = next(c for c in load_catalog(paths.catalog_path())["cases"] if c["level"] == "scene")
     with pytest.raises(CaseUnavailableError, match="not built; run vpro build"):
         check_available(case)
+
+
+class ConstantPredictor:
+    """Predicts a flat grey frame for each camera; records what it is shown."""
+
+    predicts_frames = True
+    replan_steps = None
+    policy_id = "constant-predictor"
+
+    def __init__(self):
+        self.seen = []
+
+    def reset(self, episode):
+        self.seen.clear()
+
+    def act(self, obs):
+        self.seen.append({cam: None if img is None else img.copy() for cam, img in obs.images.items()})
+        frames = {cam: np.full_like(img, 7) for cam, img in obs.images.items()}
+        return {"actions": np.array([[0, 0, 0, 0, 0, 0, -1.0]]), "predicted_frames": frames}
+
+    def close(self):
+        pass
+
+
+def test_prediction_reality_divergence_feeds_predicted_frames_back():
+    from vpro_assets import paths
+    from vpro_assets.catalog import find_case, load_catalog
+    from vpro_assets.rollout.case_env import CaseUnavailableError
+    from vpro_assets.rollout.episode import EpisodeSettings, run_episode
+    from vpro_assets.rollout.reference import NoopPolicy
+
+    case = find_case(load_catalog(paths.catalog_path()),
+                     "libero_spatial-00/prediction_reality_divergence/recursive_self_prediction-v1")
+    settings = EpisodeSettings(resolution=32, wait_steps=1, max_steps_override=3)
+    with pytest.raises(CaseUnavailableError, match="does not predict frames"):
+        run_episode(case, 0, NoopPolicy(), settings)
+    policy = ConstantPredictor()
+    result = run_episode(case, 0, policy, settings)
+    assert result["steps"] == 3 and len(policy.seen) == 3
+    assert policy.seen[0]["agentview"].std() > 0  # ground truth at the start
+    for later in policy.seen[1:]:  # then the model's own predictions
+        assert all(np.all(img == 7) for img in later.values())

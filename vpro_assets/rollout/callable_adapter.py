@@ -63,6 +63,7 @@ class _Checked:
     def __init__(self, inner, policy_id: str):
         self.inner, self.policy_id = inner, getattr(inner, "policy_id", policy_id)
         self.replan_steps = getattr(inner, "replan_steps", None)
+        self.predicts_frames = bool(getattr(inner, "predicts_frames", False))
         if hasattr(inner, "bind_env"):
             self.bind_env = inner.bind_env
 

@@ -19,9 +19,9 @@ import numpy as np
 
 from ..env import CAMERAS, NOOP_ACTION
 from ..tasks import get_task
-from .case_env import CaseEnv, check_available, env_for_case
+from .case_env import CaseEnv, CaseUnavailableError, check_available, env_for_case
 from .contacts import ContactTracker
-from .policy import EpisodeInfo, InfrastructureError, Observation, validate_actions
+from .policy import EpisodeInfo, InfrastructureError, Observation, as_output
 
 log = logging.getLogger(__name__)
 
@@ -49,11 +49,18 @@ def _distractors(cenv: CaseEnv) -> list[str]:
     return [names] if isinstance(names, str) else list(names)
 
 
+def _pid(policy) -> str:
+    return str(getattr(policy, "policy_id", type(policy).__name__))
+
+
 def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> dict:
     """Run one episode and return its row fields. Raises InfrastructureError or CaseUnavailableError."""
     started = time.time()
     seed = int(case["trial_seeds"][trial])
     check_available(case)
+    if case.get("params", {}).get("requires_predicted_frames") and not getattr(policy, "predicts_frames", False):
+        raise CaseUnavailableError(f"case {case['id']}: policy {_pid(policy)} does not predict frames; "
+                                   "Prediction-Reality Divergence applies to frame-predicting policies only")
     # The policy first: a server that is down is found before the env is built.
     episode = EpisodeInfo(instruction=get_task(case["task"]).language, case_id=case["id"], trial=trial, seed=seed,
                           suite=case["suite"], task=case["task"])
@@ -62,7 +69,7 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
     except InfrastructureError:
         raise
     except Exception as exc:
-        raise InfrastructureError(f"policy {policy.policy_id}: reset raised {type(exc).__name__}: {exc}") from exc
+        raise InfrastructureError(f"policy {_pid(policy)}: reset raised {type(exc).__name__}: {exc}") from exc
     cenv = env_for_case(case, trial, resolution=settings.resolution)
     frames: list[np.ndarray] = []
     try:
@@ -84,13 +91,13 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
             if not plan:
                 view = Observation.from_libero(obs, t, episode.instruction, images=images)
                 try:
-                    out = policy.act(view)
+                    out = as_output(policy.act(view), where=f"policy {_pid(policy)}")
                 except InfrastructureError:
                     raise
                 except Exception as exc:
-                    raise InfrastructureError(f"policy {policy.policy_id}: act raised {type(exc).__name__}: {exc}") from exc
-                actions = validate_actions(out.actions, where=f"policy {policy.policy_id}")
-                n = policy.replan_steps or len(actions)
+                    raise InfrastructureError(f"policy {_pid(policy)}: act raised {type(exc).__name__}: {exc}") from exc
+                actions = out.actions
+                n = getattr(policy, "replan_steps", None) or len(actions)
                 plan.extend(actions[:n])
                 if out.predicted_frames is not None:
                     cenv.feed_predicted(out.predicted_frames)

@@ -16,7 +16,8 @@ adapter sends a black image, as the model's own image mask would not reach the s
 duplicate replacements arrive as ordinary images, made by the perturbation layer.
 
 A policy may also return predicted frames (world-action models); the runner passes them back to the
-perturbation layer for Prediction-Reality Divergence.
+perturbation layer for Prediction-Reality Divergence. Such a policy says so with a class attribute
+`predicts_frames = True`; Prediction-Reality Divergence cases are unavailable to other policies.
 """
 from __future__ import annotations
 
@@ -126,6 +127,8 @@ def as_output(result, where: str = "policy") -> PolicyOutput:
     """Accept a PolicyOutput, a dict with 'actions' (and optional 'predicted_frames'), or an array."""
     if isinstance(result, PolicyOutput):
         return PolicyOutput(validate_actions(result.actions, where), result.predicted_frames, result.info)
+    if hasattr(result, "actions") and not isinstance(result, np.ndarray):  # another layer's output record
+        return PolicyOutput(validate_actions(result.actions, where), getattr(result, "predicted_frames", None))
     if isinstance(result, Mapping):
         if "actions" not in result:
             raise PolicyOutputError(f"{where}: reply has no 'actions' key (keys: {sorted(map(str, result))})")
