@@ -26,6 +26,7 @@ the key of its inputs and the sha256 of every file, and is written last.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import os
@@ -43,6 +44,10 @@ log = logging.getLogger(__name__)
 
 GENERATOR = "target_geometry"
 GENERATOR_VERSION = 1
+# The cache key includes the sha256 of these sources: editing the pipeline regenerates its objects.
+CODE_MODULES = ("generators/target_geometry.py", "generators/target_geometry_build.py", "vpro_assets/meshes.py",
+                "vpro_assets/solid.py", "vpro_assets/deform.py", "vpro_assets/refine.py", "vpro_assets/convex.py",
+                "vpro_assets/mjcf_object.py", "vpro_assets/exporters.py")
 SEVERITIES = (1, 2, 3)
 REFINE_FRACTION = 1.0 / 20.0  # meshes refined to edges under this fraction of the object's size
 COACD_SIMPLIFY_FRACTION = 1.0 / 250.0  # the solid given to coacd is simplified within this
@@ -132,6 +137,15 @@ def up_axis(category: str) -> str:
     return UP_AXES[category]
 
 
+def code_sha256() -> str:
+    from vpro_assets.paths import REPO_ROOT
+
+    digest = hashlib.sha256()
+    for module in CODE_MODULES:
+        digest.update(module.encode() + b"\0" + (REPO_ROOT / module).read_bytes())
+    return digest.hexdigest()
+
+
 def _versions() -> dict[str, str]:
     from importlib.metadata import version
 
@@ -147,7 +161,7 @@ def input_key(category: str, deformation: str, severity: int, coacd_params: Coac
         "setting": setting.id, "params": setting.param_dict, "up_axis": up_axis(category),
         "source_xml": xml_path.name, "source_sha256": content_sha256(xml_path),
         "coacd": coacd_params.to_json(), "refine_fraction": REFINE_FRACTION,
-        "coacd_simplify_fraction": COACD_SIMPLIFY_FRACTION, "versions": _versions(),
+        "coacd_simplify_fraction": COACD_SIMPLIFY_FRACTION, "versions": _versions(), "code_sha256": code_sha256(),
     }
 
 

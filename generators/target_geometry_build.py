@@ -13,7 +13,8 @@ from vpro_assets import deform as deform_mod
 from vpro_assets.atomic import write_bytes_atomic
 from vpro_assets.convex import CoacdParams, decompose
 from vpro_assets.exporters import ExportMesh, urdf_text, usd_text
-from vpro_assets.meshes import MeshError, content_name, load_libero_object, obj_bytes, sha256_bytes, soup_to_indexed
+from vpro_assets.meshes import (MeshError, content_name, load_libero_object, normals_to_indexed, obj_bytes, sha256_bytes,
+                                soup_to_indexed)
 from vpro_assets.mjcf_object import VisualMesh, drop_test_xml, object_xml, solid_inertial
 from vpro_assets.refine import refine_soup
 from vpro_assets.solid import check_closed_manifold, manifold_arrays, repair_part, union
@@ -73,8 +74,11 @@ def build_object(*, name, category, deformation, severity, setting, xml_path: Pa
     v1, f1 = manifold_arrays(solid)
     visual_parts = []
     for part in source.parts:
-        corners, uv = refine_soup(part.corners, part.uv, max_edge)
-        visual_parts.append((part, warp(corners.reshape(-1, 3)).reshape(-1, 3, 3), uv))
+        corners, uv, normals = refine_soup(part.corners, part.uv, max_edge, part.normals)
+        flat = corners.reshape(-1, 3)
+        if normals is not None:
+            normals = deform_mod.transform_normals(flat, normals.reshape(-1, 3), warp).reshape(-1, 3, 3)
+        visual_parts.append((part, warp(flat).reshape(-1, 3, 3), uv, normals))
     timings["deformation"] = time.perf_counter() - t1
 
     # 3. convex decomposition of the (simplified) deformed solid
@@ -89,9 +93,11 @@ def build_object(*, name, category, deformation, severity, setting, xml_path: Pa
     files: dict[str, tuple[bytes, str]] = {}  # path relative to the object folder -> (bytes, role)
     textures: dict[str, tuple[Path, str]] = {}  # out_dir-relative path -> (source, sha)
     visuals, export_visuals = [], []
-    for i, (part, corners, uv) in enumerate(visual_parts):
+    for i, (part, corners, uv, normals) in enumerate(visual_parts):
         vertices, faces, uv_vals, uv_faces = soup_to_indexed(corners, uv)
-        data = obj_bytes(vertices, faces, uv_vals, uv_faces, header=f"{name} visual {i}: {part.name} deformed")
+        normal_vals, normal_faces = (None, None) if normals is None else normals_to_indexed(normals)
+        data = obj_bytes(vertices, faces, uv_vals, uv_faces, header=f"{name} visual {i}: {part.name} deformed",
+                         normals=normal_vals, normal_faces=normal_faces)
         mesh_file = f"meshes/{content_name(f'visual{i}', data, '.obj')}"
         files[mesh_file] = (data, "visual_mesh")
         texture_rel = None
@@ -144,7 +150,7 @@ def build_object(*, name, category, deformation, severity, setting, xml_path: Pa
             "mean_displacement": _r(deform_mod.displacement_measure(v0, warp, float(np.linalg.norm(ext0)))),
             "hull_count": len(hulls), "hull_volume_ratio": _r(hull_volume / solid.volume()),
             "mass_kg": _r(mass), "solid_faces": int(len(f1)),
-            "visual_faces": int(sum(len(c) for _p, c, _u in visual_parts)),
+            "visual_faces": int(sum(len(c) for _p, c, _u, _n in visual_parts)),
         },
     }
     file_list = [GeneratedFile(f"{name}/{path}", sha256_bytes(data), role) for path, (data, role) in sorted(files.items())]

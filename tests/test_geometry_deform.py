@@ -21,7 +21,7 @@ def box_soup(extents=(0.08, 0.04, 0.02)):
 
 @pytest.fixture(scope="module")
 def refined_box():
-    corners, _ = refine_soup(box_soup(), None, 0.004)
+    corners, _, _ = refine_soup(box_soup(), None, 0.004)
     manifold, report = repair_part("box", corners)
     assert report.method == "merge"
     return manifold
@@ -84,7 +84,7 @@ def test_refinement_is_conforming_and_interpolates_texture_coordinates():
 
     corners = box_soup((0.1, 0.1, 0.15))
     uv = corners[:, :, :2] * 5.0  # any linear function of position
-    fine, fine_uv = refine_soup(corners, uv, 0.01)
+    fine, fine_uv, _ = refine_soup(corners, uv, 0.01)
     assert np.linalg.norm(fine - np.roll(fine, -1, axis=1), axis=2).max() <= 0.01
     np.testing.assert_allclose(fine_uv, fine[:, :, :2] * 5.0, atol=1e-12)
     v, f, _, _ = soup_to_indexed(fine, None)
@@ -125,3 +125,30 @@ def test_obj_bytes_are_canonical():
     a = obj_bytes(v, np.array([[0, 1, 2]]))
     b = obj_bytes(v + 1e-10, np.array([[0, 1, 2]]))  # noise below the written precision
     assert a == b and b"-0.000000" not in a
+
+
+def test_written_visual_mesh_has_the_original_texture_coordinates_in_mujoco(tmp_path):
+    """.msh stores texture coordinates as MuJoCo uses them, OBJ does not (MuJoCo flips v when it
+    reads an OBJ): an undeformed part written as OBJ must give MuJoCo the same coordinates."""
+    import mujoco
+
+    from generators.target_geometry import libero_object_xml
+    from vpro_assets.meshes import load_libero_object, normals_to_indexed
+
+    xml = libero_object_xml("cream_cheese")
+    part = load_libero_object("cream_cheese", xml).parts[0]
+    v, f, uv, uvf = soup_to_indexed(part.corners, part.uv)
+    n, nf = normals_to_indexed(part.normals)
+    (tmp_path / "part.obj").write_bytes(obj_bytes(v, f, uv, uvf, normals=n, normal_faces=nf))
+    mesh_el = next(m for m in __import__("xml.etree.ElementTree").etree.ElementTree.parse(xml).getroot().iter("mesh"))
+
+    def texcoords(mesh_file, scale):
+        model = mujoco.MjModel.from_xml_string(
+            f'<mujoco><asset><mesh name="m" file="{mesh_file}" scale="{scale}"/></asset>'
+            f'<worldbody><geom type="mesh" mesh="m" contype="0" conaffinity="0"/></worldbody></mujoco>')
+        coords = model.mesh_texcoord[model.mesh_texcoordadr[0]:model.mesh_texcoordadr[0] + model.mesh_texcoordnum[0]]
+        return np.unique(np.round(coords, 4), axis=0)
+
+    original = texcoords(xml.parent / mesh_el.get("file"), mesh_el.get("scale", "1 1 1"))
+    written = texcoords(tmp_path / "part.obj", "1 1 1")
+    np.testing.assert_allclose(written, original, atol=2e-4)

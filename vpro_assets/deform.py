@@ -125,3 +125,16 @@ def displacement_measure(points: np.ndarray, warp: Callable[[np.ndarray], np.nda
     """Mean displacement of `points` under `warp`, as a fraction of `size` (e.g. the bbox diagonal)."""
     moved = warp(points)
     return float(np.linalg.norm(moved - points, axis=1).mean() / size)
+
+
+def transform_normals(points: np.ndarray, normals: np.ndarray, warp: Callable[[np.ndarray], np.ndarray],
+                      step: float = 1e-5) -> np.ndarray:
+    """Normals carried through `warp`: n' = J^-T n (J by central differences at each point), unit length."""
+    points = np.asarray(points, dtype=np.float64)
+    jacobian = np.empty((len(points), 3, 3))
+    for k in range(3):
+        offset = np.zeros(3)
+        offset[k] = step
+        jacobian[:, :, k] = (warp(points + offset) - warp(points - offset)) / (2 * step)
+    moved = np.linalg.solve(np.transpose(jacobian, (0, 2, 1)), np.asarray(normals, np.float64)[..., None])[..., 0]
+    return moved / np.maximum(np.linalg.norm(moved, axis=1, keepdims=True), 1e-12)

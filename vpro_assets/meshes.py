@@ -21,6 +21,7 @@ from .errors import VProError
 
 POSITION_DECIMALS = 6  # metres: 1 micrometre
 UV_DECIMALS = 6
+NORMAL_DECIMALS = 5
 
 
 class MeshError(VProError):
@@ -33,11 +34,12 @@ class MeshPart:
 
     name: str
     corners: np.ndarray  # (F, 3, 3) float64 corner positions, metres
-    uv: np.ndarray | None  # (F, 3, 2) corner texture coordinates, or None
+    uv: np.ndarray | None  # (F, 3, 2) corner texture coordinates (OBJ convention: v up), or None
     material: dict[str, str] = field(default_factory=dict)  # MJCF material attributes (no name/texture)
     texture_file: Path | None = None  # absolute path of the material's texture, if any
     texture_attrs: dict[str, str] = field(default_factory=dict)  # MJCF texture attributes (no name/file)
     source_file: Path | None = None
+    normals: np.ndarray | None = None  # (F, 3, 3) corner unit normals, or None
 
     @property
     def n_faces(self) -> int:
@@ -104,16 +106,25 @@ def quat_to_matrix(quat_wxyz: np.ndarray) -> np.ndarray:
     )
 
 
-def _load_mesh_file(path: Path, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+def _load_mesh_file(path: Path, scale: np.ndarray):
+    """(corners, uv, normals) of a mesh file, scaled; uv in OBJ's convention (v up)."""
     if not path.is_file():
         raise MeshError(f"mesh file {path} does not exist")
     if path.suffix.lower() == ".msh":
-        vertices, _normals, texcoords, faces = read_msh(path)
+        vertices, normals, texcoords, faces = read_msh(path)
         corners = vertices[faces] * scale
-        uv = texcoords[faces] if len(texcoords) == len(vertices) else None
-        return corners, uv
+        uv = None
+        if len(texcoords) == len(vertices):
+            # .msh stores texture coordinates as MuJoCo uses them (v flipped from OBJ's convention);
+            # MuJoCo flips v again when it reads an OBJ, so they go back to OBJ's convention here.
+            uv = texcoords[faces] * np.array([1.0, -1.0]) + np.array([0.0, 1.0])
+        corner_normals = None
+        if len(normals) == len(vertices):
+            corner_normals = normals[faces] / np.where(scale == 0, 1.0, scale)  # normals transform by S^-1
+            corner_normals /= np.maximum(np.linalg.norm(corner_normals, axis=2, keepdims=True), 1e-12)
+        return corners, uv, corner_normals
     corners, uv = read_obj_soup(path)
-    return corners * scale, uv
+    return corners * scale, uv, None
 
 
 def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
@@ -144,9 +155,11 @@ def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
             raise MeshError(f"{category}: geom uses mesh {geom.get('mesh')!r}, not defined in {xml_path}")
         if mesh_el.get("refpos") or mesh_el.get("refquat"):
             raise MeshError(f"{category}: mesh {mesh_el.get('name')!r} uses refpos/refquat, not supported")
-        corners, uv = _load_mesh_file(xml_path.parent / mesh_el.get("file", ""), _floats(mesh_el.get("scale"), (1, 1, 1)))
+        corners, uv, normals = _load_mesh_file(xml_path.parent / mesh_el.get("file", ""),
+                                               _floats(mesh_el.get("scale"), (1, 1, 1)))
         rotation = quat_to_matrix(_floats(geom.get("quat"), (1, 0, 0, 0)))
         corners = corners @ rotation.T + _floats(geom.get("pos"), (0, 0, 0))
+        normals = None if normals is None else normals @ rotation.T
         material, texture_file, texture_attrs = {}, None, {}
         mat_el = materials.get(geom.get("material"))
         if mat_el is not None:
@@ -158,7 +171,8 @@ def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
         elif geom.get("rgba"):
             material = {"rgba": geom.get("rgba")}
         parts.append(MeshPart(mesh_el.get("name"), corners, uv if texture_file is not None else None,
-                              material, texture_file, texture_attrs, xml_path.parent / mesh_el.get("file", "")))
+                              material, texture_file, texture_attrs, xml_path.parent / mesh_el.get("file", ""),
+                              normals))
     if not parts:
         raise MeshError(f"{category}: {xml_path} has no visual mesh geom (group 1) in its object body")
     sites = [dict(s.attrib) for s in outer.findall("./site")]
@@ -185,34 +199,44 @@ def _format_rows(prefix: str, rows: np.ndarray, decimals: int) -> str:
 
 
 def obj_bytes(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None,
-              uv_faces: np.ndarray | None = None, header: str = "") -> bytes:
-    """OBJ text: `v` at 6 decimals, optional `vt`, 1-based faces (`f a/b` when uv is given)."""
-    faces = np.asarray(faces, dtype=np.int64) + 1
+              uv_faces: np.ndarray | None = None, header: str = "", normals: np.ndarray | None = None,
+              normal_faces: np.ndarray | None = None) -> bytes:
+    """OBJ text: `v` at 6 decimals, optional `vt` and `vn`, 1-based faces (`f v/vt/vn`)."""
+    columns = [np.asarray(faces, dtype=np.int64) + 1]
     text = [f"# {header}\n" if header else "", _format_rows("v", np.asarray(vertices), POSITION_DECIMALS)]
     if uv is not None:
         text.append(_format_rows("vt", np.asarray(uv), UV_DECIMALS))
-        uv_faces = np.asarray(uv_faces, dtype=np.int64) + 1
-        pairs = np.stack([faces, uv_faces], axis=-1).reshape(len(faces), 6)
-        buffer = io.StringIO()
-        np.savetxt(buffer, pairs, fmt="f %d/%d %d/%d %d/%d")
-        text.append(buffer.getvalue())
-    else:
-        buffer = io.StringIO()
-        np.savetxt(buffer, faces, fmt="f %d %d %d")
-        text.append(buffer.getvalue())
+        columns.append(np.asarray(uv_faces, dtype=np.int64) + 1)
+    if normals is not None:
+        text.append(_format_rows("vn", np.asarray(normals), NORMAL_DECIMALS))
+        columns.append(np.asarray(normal_faces, dtype=np.int64) + 1)
+    corner = {1: "%d", 2: "%d/%d", 3: "%d/%d/%d"}[len(columns)]
+    if normals is not None and uv is None:
+        corner = "%d//%d"
+    table = np.stack(columns, axis=-1).reshape(len(columns[0]), 3 * len(columns))
+    buffer = io.StringIO()
+    np.savetxt(buffer, table, fmt="f " + " ".join([corner] * 3))
+    text.append(buffer.getvalue())
     return "".join(text).encode("ascii")
+
+
+def _unique_rows(values: np.ndarray, decimals: int) -> tuple[np.ndarray, np.ndarray]:
+    unique, inverse = np.unique(quantize(values.reshape(-1, values.shape[-1]), decimals), axis=0, return_inverse=True)
+    return unique, inverse.reshape(-1, 3)
 
 
 def soup_to_indexed(corners: np.ndarray, uv: np.ndarray | None):
     """Triangle soup -> (vertices, faces, uv, uv_faces), merging corners equal at written precision."""
-    flat = quantize(corners.reshape(-1, 3))
-    vertices, inverse = np.unique(flat, axis=0, return_inverse=True)
-    faces = inverse.reshape(-1, 3)
+    vertices, faces = _unique_rows(corners, POSITION_DECIMALS)
     if uv is None:
         return vertices, faces, None, None
-    flat_uv = quantize(uv.reshape(-1, 2), UV_DECIMALS)
-    uv_unique, uv_inverse = np.unique(flat_uv, axis=0, return_inverse=True)
-    return vertices, faces, uv_unique, uv_inverse.reshape(-1, 3)
+    uv_unique, uv_faces = _unique_rows(uv, UV_DECIMALS)
+    return vertices, faces, uv_unique, uv_faces
+
+
+def normals_to_indexed(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Corner normals (F, 3, 3) -> (unique normals, normal_faces) at written precision."""
+    return _unique_rows(normals, NORMAL_DECIMALS)
 
 
 def sha256_bytes(data: bytes) -> str:

@@ -16,17 +16,27 @@ from .meshes import quantize
 MAX_ITERATIONS = 10
 
 
-def refine_soup(corners: np.ndarray, uv: np.ndarray | None, max_edge: float):
-    """Return (corners, uv) with every edge at most `max_edge` (or MAX_ITERATIONS halvings)."""
+def refine_soup(corners: np.ndarray, uv: np.ndarray | None, max_edge: float, normals: np.ndarray | None = None):
+    """Return (corners, uv, normals) with every edge at most `max_edge` (or MAX_ITERATIONS halvings).
+
+    `uv` (F, 3, 2) and `normals` (F, 3, 3) are per-corner attributes (either may be None);
+    midpoint normals are renormalised.
+    """
+    attributes = [a for a in (uv, normals) if a is not None]
     for _ in range(MAX_ITERATIONS):
         lengths = np.linalg.norm(corners - np.roll(corners, -1, axis=1), axis=2)  # edge k: corner k -> k+1
         if lengths.max() <= max_edge:
             break
-        corners, uv = _split_once(corners, uv, lengths > max_edge)
-    return corners, uv
+        corners, attributes = _split_once(corners, attributes, lengths > max_edge)
+    out = iter(attributes)
+    uv = None if uv is None else next(out)
+    if normals is not None:
+        normals = next(out)
+        normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-12)
+    return corners, uv, normals
 
 
-def _split_once(corners: np.ndarray, uv: np.ndarray | None, long_edges: np.ndarray):
+def _split_once(corners: np.ndarray, attributes: list[np.ndarray], long_edges: np.ndarray):
     # Mark an edge in every face sharing it: key by the two quantised corner positions, unordered.
     keys = quantize(corners).reshape(len(corners), 3, 3)
     a, b = keys, np.roll(keys, -1, axis=1)
@@ -38,9 +48,10 @@ def _split_once(corners: np.ndarray, uv: np.ndarray | None, long_edges: np.ndarr
     marked_unique[inverse[long_edges.reshape(-1)]] = True
     marked = marked_unique[inverse].reshape(-1, 3)
 
-    mids = (corners + np.roll(corners, -1, axis=1)) / 2.0  # mid of edge k between corner k and k+1
-    mids_uv = None if uv is None else (uv + np.roll(uv, -1, axis=1)) / 2.0
-    out_c, out_uv = [corners[~marked.any(axis=1)]], [None if uv is None else uv[~marked.any(axis=1)]]
+    arrays = [corners] + attributes  # split together: positions first, then per-corner attributes
+    mids = [(a + np.roll(a, -1, axis=1)) / 2.0 for a in arrays]  # mid of edge k between corner k and k+1
+    keep = ~marked.any(axis=1)
+    out = [[a[keep]] for a in arrays]
     count = marked.sum(axis=1)
     for n_marked in (1, 2, 3):
         faces = np.nonzero(count == n_marked)[0]
@@ -54,17 +65,13 @@ def _split_once(corners: np.ndarray, uv: np.ndarray | None, long_edges: np.ndarr
         else:
             shift = np.zeros(len(faces), dtype=int)
         order = (np.arange(3)[None, :] + shift[:, None]) % 3
-        c = np.take_along_axis(corners[faces], order[..., None], axis=1)
-        m = np.take_along_axis(mids[faces], order[..., None], axis=1)
-        t = None if uv is None else np.take_along_axis(uv[faces], order[..., None], axis=1)
-        mt = None if uv is None else np.take_along_axis(mids_uv[faces], order[..., None], axis=1)
-        pattern = _PATTERNS[n_marked]
-        for tri in pattern:
-            out_c.append(np.stack([_pick(c, m, s) for s in tri], axis=1))
-            out_uv.append(None if uv is None else np.stack([_pick(t, mt, s) for s in tri], axis=1))
-    corners = np.concatenate(out_c)
-    uv = None if uv is None else np.concatenate(out_uv)
-    return corners, uv
+        for a, mid, collected in zip(arrays, mids, out):
+            c = np.take_along_axis(a[faces], order[..., None], axis=1)
+            m = np.take_along_axis(mid[faces], order[..., None], axis=1)
+            for tri in _PATTERNS[n_marked]:
+                collected.append(np.stack([_pick(c, m, s) for s in tri], axis=1))
+    arrays = [np.concatenate(collected) for collected in out]
+    return arrays[0], arrays[1:]
 
 
 def _lex_less(a: np.ndarray, b: np.ndarray) -> np.ndarray:
