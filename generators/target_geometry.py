@@ -20,9 +20,14 @@ Output layout under `out_dir` (every path below is listed with its sha256 in the
     textures/<texture stem>_<sha>.png          (shared by every object made from one texture)
 with `<name>` = `vpro_<category>_<deformation>_s<severity>_v<generator version>`.
 
-An object whose inputs (the source files' bytes, the parameters, this generator's version and the
-versions of trimesh, manifold3d and coacd) are unchanged is not regenerated: `record.json` keeps
-the key of its inputs and the sha256 of every file, and is written last.
+Visual meshes keep the original texture coordinates and carry their normals through the map
+(n' = J^-T n); the collision hulls, the solid and the exports are built from the deformed solid.
+
+An object whose inputs (the source files' bytes, the parameters, the source of this pipeline's
+modules and the versions of trimesh, manifold3d, coacd, numpy, usd-core and mujoco) are unchanged
+is not regenerated: `record.json` keeps the key of its inputs and the sha256 of every file, and is
+written last. Errors (`MeshError`, `InvalidParameterError`, `UnknownIdError`, all `VProError`)
+name the object and leave nothing behind in `out_dir` but files of other objects.
 """
 from __future__ import annotations
 
@@ -37,7 +42,7 @@ from typing import Mapping
 
 from vpro_assets.convex import CoacdParams
 from vpro_assets.errors import InvalidParameterError, UnknownIdError
-from vpro_assets.meshes import sha256_file
+from vpro_assets.meshes import MeshError, sha256_file
 from vpro_assets.seeding import derive_seed
 
 log = logging.getLogger(__name__)
@@ -201,6 +206,9 @@ def generate_deformed_object(
             staging=staging, out_dir=out_dir,
         )
         _publish(staging, out_dir / name)
+    except MeshError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise MeshError(f"{name}: {exc}") from exc
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
