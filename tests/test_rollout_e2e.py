@@ -22,6 +22,19 @@ def small_selection(catalog) -> list[str]:
     return picked
 
 
+def _check_video(path, frames: int, width: int) -> None:
+    """Clean views and policy views side by side, one frame per policy step."""
+    import cv2
+
+    cap = cv2.VideoCapture(path)
+    try:
+        assert cap.isOpened(), path
+        assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == frames
+        assert int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)) == width
+    finally:
+        cap.release()
+
+
 def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("VPRO_OUT", str(tmp_path / "out"))  # no built scenes: scene cases must say so
     catalog = load_catalog(paths.catalog_path())
@@ -29,7 +42,7 @@ def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, c
     db = tmp_path / "results.sqlite"
     args = ["eval", "--policy", "noop", "--select", "normal", "--select", TASK, "--trials", "1", "--results", str(db),
             "--run-id", "e2e", "--workers", "2", "--max-steps", "3", "--wait-steps", "1", "--resolution", "64",
-            "--retries", "0", "--no-progress"]
+            "--retries", "0", "--no-progress", "--video", str(tmp_path / "videos")]
     for cid in ids[1:]:
         args += ["--select", cid]
     assert main(args) == 0
@@ -52,6 +65,7 @@ def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, c
             assert row["steps"] == 3 and row["contact"] in ("target_only", "distractor_only", "both", "neither")
             assert row["phase_timeline"] is None or "changes" in row["phase_timeline"]
             assert len(row["final_state"]) == 64 and set(row["artifact_hashes"]) >= {"bddl", "init_states"}
+            _check_video(row["video"], frames=3, width=4 * 64)
 
     out = tmp_path / "report"
     assert main(["report", str(db), "--out", str(out)]) == 0

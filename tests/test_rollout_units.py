@@ -152,3 +152,40 @@ def test_prediction_reality_divergence_feeds_predicted_frames_back():
     assert policy.seen[0]["agentview"].std() > 0  # ground truth at the start
     for later in policy.seen[1:]:  # then the model's own predictions
         assert all(np.all(img == 7) for img in later.values())
+
+
+class CrashOnFirstTrial:
+    """Kills its worker process in trial 0 (as a simulator segfault would)."""
+
+    policy_id = "crasher"
+    replan_steps = None
+
+    def reset(self, episode):
+        self.trial = episode.trial
+
+    def act(self, obs):
+        if self.trial == 0:
+            import os
+
+            os._exit(3)
+        return np.zeros((1, 7))
+
+    def close(self):
+        pass
+
+
+@pytest.mark.slow  # two worker start-ups: about a minute or two on 2 shared cores
+def test_a_dying_worker_is_an_error_row_and_is_replaced(tmp_path):
+    from vpro_assets import paths
+    from vpro_assets.catalog import find_case, load_catalog
+    from vpro_assets.rollout.episode import EpisodeSettings
+    from vpro_assets.rollout.runner import run_eval
+    from vpro_assets.rollout.store import ResultsStore
+
+    case = find_case(load_catalog(paths.catalog_path()), "libero_goal-03/normal")
+    summary = run_eval([case], results=tmp_path / "r.sqlite", policy_spec=f"py:{__name__}:CrashOnFirstTrial",
+                       trials=2, backend="local", workers=1, retries=0,
+                       settings=EpisodeSettings(resolution=32, wait_steps=1, max_steps_override=2))
+    first, second = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
+    assert first["status"] == "error" and first["error_kind"] == "WorkerDied" and "exit code 3" in first["error"]
+    assert second["status"] == "ok" and second["steps"] == 2

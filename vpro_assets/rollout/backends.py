@@ -77,7 +77,9 @@ def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
         return
     workers = max(1, min(workers, len(jobs)))
     ctx = mp.get_context("spawn")
-    tasks, results = ctx.Queue(), ctx.Queue()
+    # Results through a SimpleQueue: its put writes to the pipe at once (no feeder thread), so the
+    # "start" note of a worker that crashes a moment later is never lost.
+    tasks, results = ctx.Queue(), ctx.SimpleQueue()
     by_key = {(j["case"]["id"], j["trial"]): j for j in jobs}
     for job in jobs:
         tasks.put(job)
@@ -94,7 +96,9 @@ def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
     try:
         while remaining:
             try:
-                kind, payload, pid = results.get(timeout=1.0)
+                if not results._reader.poll(1.0):
+                    raise queue.Empty
+                kind, payload, pid = results.get()
             except queue.Empty:
                 for pid, proc in list(procs.items()):
                     if not proc.is_alive():
@@ -126,7 +130,7 @@ def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
             if proc.is_alive():
                 proc.kill()
         tasks.cancel_join_thread()
-        results.cancel_join_thread()
+        results.close()
 
 
 def run_ray(jobs: Iterable[dict], workers: int, address: Optional[str] = None) -> Iterator[dict]:
