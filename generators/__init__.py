@@ -17,7 +17,8 @@ from typing import Callable
 
 from vpro_assets.errors import VProError
 
-FAMILY_MODULES = ("generators.distractors", "generators.precondition", "generators.geometry_scene")
+FAMILY_MODULES = ("generators.distractors", "generators.precondition", "generators.ambiguity",
+                  "generators.geometry_scene")
 
 
 class GeneratorError(VProError):

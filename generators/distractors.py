@@ -63,8 +63,8 @@ def choose(ctx: GenContext, rule: str) -> pool_mod.PoolObject:
         return _pick(ctx, [p for p in grasp if p.category != target.category] or grasp, size, rule)
     if rule == "trajectory_obstacle":
         fam = [p for p in others if p.family != target.family]
-        tall = [p for p in fam if p.extents[2] >= OBSTACLE_MIN_HEIGHT] or fam
-        return _pick(ctx, tall, lambda p: abs(p.extents[1] - OBSTACLE_WIDTH), rule)
+        tall = [p for p in fam if p.height >= OBSTACLE_MIN_HEIGHT] or fam
+        return _pick(ctx, tall, lambda p: abs(max(p.footprint) - OBSTACLE_WIDTH), rule)
     raise ctx.fail(f"unknown distractor rule {rule!r}")
 
 

@@ -32,6 +32,32 @@ class BaseScene:
     workspace_offset: np.ndarray  # world position of LIBERO's region coordinate origin
     object_classes: dict  # instance -> LIBERO object (for rotation, footprints)
     site_joints: dict  # region or fixture name -> joint names that articulate it
+    fixture_z: float  # height LIBERO's fixture sampler places a fixture's bottom site at
+    surface_z: float  # height of the surface objects rest on (LIBERO's first state, settled)
+    camera: tuple  # agentview (position, 3x3 orientation, vertical field of view in degrees)
+    ray_scene: tuple  # (MjModel, MjData) of the settled first state, for visibility rays
+
+    def in_view(self, xy, z: float | None = None, margin: float = 0.85) -> bool:
+        """Whether a point on the table is inside the central `margin` of the agentview image."""
+        pos, mat, fovy = self.camera
+        p = np.array([xy[0], xy[1], self.surface_z if z is None else z]) - pos
+        c = mat.T @ p  # camera frame: looks along -z, y up
+        if c[2] >= 0:
+            return False
+        t = np.tan(np.radians(fovy) / 2) * margin
+        if not (abs(c[0] / -c[2]) < t and abs(c[1] / -c[2]) < t):
+            return False
+        # Not hidden behind a fixture or object: the camera ray to a point 3 cm above the table
+        # meets nothing before it (LIBERO's first state, settled).
+        import mujoco
+
+        model, data = self.ray_scene
+        target = np.array([xy[0], xy[1], (self.surface_z if z is None else z) + 0.03])
+        vec = target - pos
+        dist = np.linalg.norm(vec)
+        geom = np.array([-1], dtype=np.int32)
+        hit = mujoco.mj_ray(model, data, pos, vec / dist, None, 1, -1, geom)
+        return hit < 0 or hit >= dist - 0.02
 
     def to_region_xy(self, world_xy) -> np.ndarray:
         return np.asarray(world_xy, dtype=float) - self.workspace_offset[:2]
@@ -59,12 +85,18 @@ def base_scene(task_key: str) -> BaseScene:
             for name, v in layout.items():
                 positions.setdefault(name, []).append(v["pos"])
         raw = sim.raw(env)
+        sim.load_state(env, rows[0])
+        sim.settle(env)
+        surface = float(np.median([v["lo"][2] for v in sim.body_layout(env).values() if v["kind"] == "object"]))
         return BaseScene(
             task=task, bddl=bddl, rows=rows, slots=slots, layouts=layouts,
             mean_pos={k: np.mean(v, axis=0) for k, v in positions.items()},
             workspace=raw.workspace_name, workspace_offset=np.asarray(raw.workspace_offset, dtype=float),
             object_classes={**raw.objects_dict, **raw.fixtures_dict},
             site_joints=_site_joints(env),
+            fixture_z=float(raw.workspace_offset[2] + getattr(raw, "z_offset", 0.0)), surface_z=surface,
+            camera=_camera(env, "agentview"),
+            ray_scene=_ray_scene(env),
         )
     finally:
         env.close()
@@ -88,3 +120,21 @@ def _site_joints(env) -> dict[str, list[str]]:
         if joints:
             out[name] = joints
     return out
+
+
+def _camera(env, name: str) -> tuple:
+    raw = sim.raw(env)
+    cid = raw.sim.model.camera_name2id(name)
+    return (np.array(raw.sim.data.cam_xpos[cid]), np.array(raw.sim.data.cam_xmat[cid]).reshape(3, 3),
+            float(raw.sim.model.cam_fovy[cid]))
+
+
+def _ray_scene(env) -> tuple:
+    import mujoco
+
+    raw = sim.raw(env)
+    model = raw.sim.model._model
+    data = mujoco.MjData(model)
+    data.qpos[:] = raw.sim.data._data.qpos
+    mujoco.mj_forward(model, data)
+    return model, data

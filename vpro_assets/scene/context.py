@@ -12,10 +12,10 @@ from . import pool as pool_mod
 from .base_scene import BaseScene
 from .bddl_doc import Region
 
-SPOT_RADII = (0.14, 0.18, 0.22, 0.26, 0.30, 0.34)  # m from the target's familiar position, nearest first
+SPOT_RADII = (0.14, 0.18, 0.22, 0.26, 0.30, 0.34, 0.38, 0.42, 0.46, 0.50)  # m from the target's familiar position, nearest first
 SPOT_ANGLES = 24
 SPOT_CLEARANCE = 0.02  # m between a new object's disc and every other footprint, in every trial row
-BOUNDS_PAD = 0.12  # m: new objects stay within the box of the scene's objects and fixtures, grown by this
+BOUNDS_PAD = 0.15  # m: new objects stay within the box of the scene's objects and fixtures, grown by this
 REGION_HALF = 0.01  # m: half-size of a region written for an added object (LIBERO's own are 1 cm)
 
 
@@ -101,15 +101,16 @@ class GenContext:
     def free_spot(self, around: np.ndarray, radius: float, ignore: tuple[str, ...] = (),
                   radii: tuple[float, ...] = SPOT_RADII) -> np.ndarray:
         """The rule for a new object's nominal spot: on the nearest ring around `around` that has
-        a spot clear of every footprint by SPOT_CLEARANCE in every trial row (and inside the scene's
-        bounds), the spot of that ring with the most clearance (first angle on ties)."""
+        a spot clear of every footprint by SPOT_CLEARANCE in every trial row, inside the scene's
+        bounds and inside the central 85% of the agentview image, the spot of that ring with the
+        most clearance (first angle on ties)."""
         lo, hi = self.bounds()
         for r in radii:
             best, best_gap = None, -math.inf
             for k in range(SPOT_ANGLES):
                 theta = 2 * math.pi * k / SPOT_ANGLES
                 xy = around + r * np.array([math.cos(theta), math.sin(theta)])
-                if np.any(xy < lo) or np.any(xy > hi):
+                if np.any(xy < lo) or np.any(xy > hi) or not self.base.in_view(xy):
                     continue
                 gap = self.clearance(xy, radius, ignore)
                 if gap >= SPOT_CLEARANCE and gap > best_gap + 1e-9:

@@ -34,7 +34,8 @@ def write_gallery(catalog: dict, task_key: str, out: Path, resolution: int = 256
         except Exception:
             continue
         state = read_init_states(found["init_states"])[0]
-        name = case["setting"].removeprefix("vpro/").split("/", 1)[1]
+        cat, name = case["setting"].removeprefix("vpro/").split("/", 1)
+        name = f"{cat.split('_')[-1]}/{name.rsplit('-v', 1)[0]}"
         panels.append(label(_render(task, str(found["bddl"]), state, resolution), name))
     if len(panels) == 1:
         return 0

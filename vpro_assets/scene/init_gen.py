@@ -25,6 +25,7 @@ import numpy as np
 from .. import seeding
 from ..errors import VProError
 from . import sim
+from .pose import INVERT, class_quat, quat_mul
 from .variant import SceneVariant
 
 log = logging.getLogger(__name__)
@@ -36,36 +37,6 @@ SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
 
 class InitStateError(VProError):
     """No acceptable initial state for a trial of a case."""
-
-
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
-
-
-INVERT = np.array([0.0, 1.0, 0.0, 0.0])  # 180 degrees about the world x axis (w, x, y, z)
-
-
-def _axis_quat(axis: str, angle: float) -> np.ndarray:
-    q = np.zeros(4)
-    q[0], q[{"x": 1, "y": 2, "z": 3}[axis]] = math.cos(angle / 2), math.sin(angle / 2)
-    return q
-
-
-def default_quat(obj, rng: np.random.Generator) -> np.ndarray:
-    """The orientation LIBERO's region samplers give a fresh object of this class: its `rotation`
-    (a range about `rotation_axis`, or a dict of ranges per axis composed in order), drawn from
-    the trial's stream instead of the global one."""
-    rot = obj.rotation
-    if isinstance(rot, dict):
-        q = np.array([1.0, 0.0, 0.0, 0.0])
-        for axis, rng_range in rot.items():
-            q = _quat_mul(_axis_quat(axis, rng.uniform(min(rng_range), max(rng_range))), q)
-        return q
-    angle = rng.uniform(min(rot), max(rot)) if isinstance(rot, (tuple, list)) else float(rot or 0.0)
-    return _axis_quat(getattr(obj, "rotation_axis", "z") or "z", angle)
 
 
 def _support_height(layout: dict) -> float:
@@ -95,21 +66,23 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
         joint = obj.joints[-1]
         qpos = np.array(data.get_joint_qpos(joint))
         if p.instance in added:
-            qpos[3:] = default_quat(obj, rng)
+            qpos[3:] = class_quat(obj, rng)
         if p.invert:
-            qpos[3:] = _quat_mul(INVERT, qpos[3:])
+            qpos[3:] = quat_mul(INVERT, qpos[3:])
         data.set_joint_qpos(joint, qpos)
         raw.sim.forward()
         own = sim.body_layout(env)[p.instance]
-        radius = 0.5 * math.hypot(own["hi"][0] - own["lo"][0], own["hi"][1] - own["lo"][1])
+        # Half its longer side plus 10%, as the spot planning measures it (PoolObject.footprint_radius).
+        radius = 0.55 * max(own["hi"][0] - own["lo"][0], own["hi"][1] - own["lo"][1])
         others = [(v["lo"], v["hi"]) for k, v in sim.body_layout(env).items()
                   if k != p.instance and k not in pending]
         if p.keep_xy:
             xy = qpos[:2].copy()
         else:
             anchor = np.asarray(p.anchor, dtype=float)
-            for _ in range(MAX_DRAWS):
-                r = rng.uniform(p.r_min, p.r_max)
+            for draw in range(MAX_DRAWS):
+                # The ring widens by 1 cm every 20 draws when the trial's own layout crowds the spot.
+                r = rng.uniform(p.r_min, p.r_max + 0.01 * (draw // 20))
                 theta = rng.uniform(0, 2 * math.pi)
                 xy = anchor + r * np.array([math.cos(theta), math.sin(theta)])
                 # The object's origin need not be its footprint's centre.
@@ -117,7 +90,7 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
                 if _clear(centre, radius, others, p.margin):
                     break
             else:
-                raise InitStateError(f"no free spot for {p.instance} within {p.r_max:.2f} m of "
+                raise InitStateError(f"no free spot for {p.instance} within {p.r_max + 0.01 * (MAX_DRAWS // 20):.2f} m of "
                                      f"({anchor[0]:.3f}, {anchor[1]:.3f})")
         qpos[:2] = xy
         data.set_joint_qpos(joint, qpos)

@@ -5,7 +5,8 @@ their BDDL files, not listed by hand). Each entry has:
 - `category` and `family`: semantic class and coarser family (a table, stated here, because a
   mesh does not say that a ramekin is dishware);
 - `grasp`: how a parallel gripper takes it (bowl rim, box, bottle, mug handle, can, flat);
-- `extents`: sorted bounding-box extents (m) measured from the object's own MJCF in MuJoCo;
+- `extents`: sorted bounding-box extents (m) measured from the object's own MJCF in MuJoCo, and
+  `footprint`/`height`: its extents as LIBERO places it (its class rotation, middle of the range);
 - `color`: its dominant colour (mean texel under the mesh's texture coordinates).
 """
 from __future__ import annotations
@@ -58,6 +59,8 @@ class PoolObject:
     grasp: str
     extents: tuple[float, float, float]  # sorted ascending, metres
     color: tuple[int, int, int]  # dominant RGB
+    footprint: tuple[float, float] = (0.0, 0.0)  # x, y extents as LIBERO places it (class rotation)
+    height: float = 0.0  # z extent as LIBERO places it
 
     @property
     def size(self) -> float:
@@ -70,13 +73,14 @@ class PoolObject:
 
     @property
     def footprint_radius(self) -> float:
-        """Radius of the object's footprint for planning spots: half its largest extent, plus 15%
-        (exact for round objects, close for the boxes LIBERO places at fixed yaw)."""
-        return 0.575 * float(self.extents[2])
+        """Planning radius of its footprint as LIBERO places it: half its longer side plus 10%
+        (exact for round objects; the spot margins cover the corners of boxes)."""
+        return 0.55 * float(max(self.footprint))
 
     def to_json(self) -> dict:
         return {"name": self.name, "category": self.category, "family": self.family, "grasp": self.grasp,
-                "extents": [round(x, 5) for x in self.extents], "color": list(self.color)}
+                "extents": [round(x, 5) for x in self.extents], "color": list(self.color),
+                "footprint": [round(x, 5) for x in self.footprint], "height": round(self.height, 5)}
 
 
 def movable_categories() -> list[str]:
@@ -89,21 +93,26 @@ def movable_categories() -> list[str]:
     return sorted(cats)
 
 
-def measure_mjcf(path: str) -> tuple[tuple[float, float, float], tuple[int, int, int]]:
-    """Sorted bounding-box extents and dominant colour of an object MJCF."""
+def measure_mjcf(path: str, quat=None) -> tuple[tuple[float, float, float], tuple[int, int, int], np.ndarray]:
+    """Sorted bounding-box extents, dominant colour, and the (x, y, z) extents of the object
+    turned by `quat` (w, x, y, z), e.g. LIBERO's placement rotation of its class."""
     import mujoco
+
+    from .pose import quat_matrix
 
     model = mujoco.MjModel.from_xml_path(path)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
     pts = []
-    for g in range(model.ngeom):
+    colliding = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
+    for g in colliding or range(model.ngeom):  # the geometry that touches the world, as scenes measure it
         c, h = model.geom_aabb[g][:3], model.geom_aabb[g][3:]
         pts.append((corners * h + c) @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g])
     pts = np.concatenate(pts)
     extents = tuple(float(round(x, 5)) for x in sorted(pts.max(0) - pts.min(0)))
-    return extents, dominant_color(model)
+    turned = pts @ quat_matrix(quat if quat is not None else [1, 0, 0, 0]).T
+    return extents, dominant_color(model), turned.max(0) - turned.min(0)
 
 
 def dominant_color(model) -> tuple[int, int, int]:
@@ -153,8 +162,13 @@ def pool() -> dict[str, PoolObject]:
         if name not in SEMANTICS:
             raise VProError(f"LIBERO object {name!r} has no entry in the distractor pool's semantic table "
                             "(vpro_assets/scene/pool.py SEMANTICS)")
-        extents, color = measure_mjcf(object_file(name))
-        out[name] = PoolObject(name, *SEMANTICS[name], extents=extents, color=color)
+        from .pose import class_quat
+
+        probe = libero_bridge.libero_envs().OBJECTS_DICT[name](name=f"vpro_probe_{name}")
+        extents, color, placed = measure_mjcf(probe.file, class_quat(probe))
+        out[name] = PoolObject(name, *SEMANTICS[name], extents=extents, color=color,
+                               footprint=(round(float(placed[0]), 5), round(float(placed[1]), 5)),
+                               height=round(float(placed[2]), 5))
     return out
 
 

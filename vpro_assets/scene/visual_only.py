@@ -1,0 +1,103 @@
+"""Visual-only copies of LIBERO objects (Visual State Ambiguity): seen, never touched, never moved.
+
+The copy keeps the source object's visual meshes and materials, drops every geometry that
+collides, and marks what is left `contype=0 conaffinity=0 group=1`; it is placed as a fixture (no
+joint, so it never moves) in the pose given (e.g. upside down). Its placement sites are
+recomputed for that pose so LIBERO's fixture sampler puts its lowest point on the table.
+"""
+from __future__ import annotations
+
+import hashlib
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from .pose import quat_matrix
+from .pool import object_file
+from .variant import GeneratedObject
+
+
+def _visual_geoms(root: ET.Element) -> None:
+    for parent in root.iter():
+        for geom in list(parent.findall("geom")):
+            colliding = geom.get("contype", "1") != "0" or geom.get("conaffinity", "1") != "0"
+            if colliding or geom.get("group", "0") == "0":
+                parent.remove(geom)
+            else:
+                geom.set("contype", "0")
+                geom.set("conaffinity", "0")
+                geom.set("group", "1")
+                for key in ("density", "mass", "solimp", "solref", "friction"):
+                    geom.attrib.pop(key, None)
+
+
+def _extent(xml_text: str, directory: Path) -> tuple[np.ndarray, np.ndarray]:
+    """World-frame box of the visual geoms of an object file (outer body at the origin)."""
+    import mujoco
+
+    tmp = directory / ".probe.xml"
+    tmp.write_text(xml_text)
+    try:
+        model = mujoco.MjModel.from_xml_path(str(tmp))
+    finally:
+        tmp.unlink()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    pts = np.concatenate([(corners * model.geom_aabb[g][3:] + model.geom_aabb[g][:3]) @ data.geom_xmat[g].reshape(3, 3).T
+                          + data.geom_xpos[g] for g in range(model.ngeom)])
+    return pts.min(0), pts.max(0)
+
+
+def ghost_name(source: str, label: str, quat, sink: float) -> str:
+    key = hashlib.sha256(f"v3|{source}|{label}|{np.round(quat, 6).tolist()}|{sink:.5f}".encode()).hexdigest()[:8]
+    return f"vpro_ghost_{source}_{label}_{key}"
+
+
+def write_ghost(source: str, name: str, quat, sink: float, directory: Path) -> Path:
+    """`sink`: how far below LIBERO's fixture reference height the table surface lies (m)."""
+    src_xml = Path(object_file(source))
+    root = ET.parse(src_xml).getroot()
+    _visual_geoms(root)
+    outer = root.find("./worldbody/body")
+    inner = outer.find("./body[@name='object']")
+    for site in list(outer.findall("site")):
+        outer.remove(site)
+    # robosuite keeps the `object` body's children but not its own pose: the turn goes one level in.
+    turned = ET.Element("body", {"name": "ghost_part", "quat": " ".join(f"{v:.6f}" for v in quat)})
+    offset = ET.SubElement(turned, "body", {"name": "ghost_mesh", "pos": inner.get("pos", "0 0 0")})
+    for child in list(inner):
+        inner.remove(child)
+        offset.append(child)
+    inner.attrib.pop("pos", None)
+    inner.attrib.pop("quat", None)
+    inner.append(turned)
+    directory.mkdir(parents=True, exist_ok=True)
+    for element in root.iter():
+        rel = element.get("file")
+        if rel:
+            (directory / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src_xml.parent / rel, directory / rel)
+    lo, hi = _extent(ET.tostring(root, encoding="unicode"), directory)
+    # Centre the visible geometry over the fixture's origin (LIBERO's meshes sit off their body).
+    centre = (lo[:2] + hi[:2]) / 2
+    turned.set("pos", f"{-centre[0]:.6f} {-centre[1]:.6f} 0")
+    lo, hi = _extent(ET.tostring(root, encoding="unicode"), directory)
+    radius = float(np.max(np.abs(np.concatenate([lo[:2], hi[:2]]))))
+    for site_name, pos in (("bottom_site", (0.0, 0.0, lo[2] - sink)), ("top_site", (0.0, 0.0, hi[2])),
+                           ("horizontal_radius_site", (radius, radius, 0.0))):
+        ET.SubElement(outer, "site", {"name": site_name, "pos": " ".join(f"{v:.5f}" for v in pos),
+                                      "size": "0.005", "rgba": "0 0 0 0"})
+    root.set("model", name)
+    ET.indent(root)
+    out = directory / f"{name}.xml"
+    out.write_bytes(ET.tostring(root, encoding="utf-8") + b"\n")
+    return out
+
+
+def ghost_object(source: str, label: str, quat, sink: float) -> GeneratedObject:
+    name = ghost_name(source, label, quat, sink)
+    return GeneratedObject(name=name, write=lambda directory: write_ghost(source, name, quat, sink, directory),
+                           template=None, fingerprint=name)
