@@ -11,7 +11,7 @@ import numpy as np
 from generators.target_geometry import COACD_SIMPLIFY_FRACTION, REFINE_FRACTION, GeneratedFile, GeneratedObject
 from vpro_assets import deform as deform_mod
 from vpro_assets.atomic import write_bytes_atomic
-from vpro_assets.convex import CoacdParams, decompose
+from vpro_assets.convex import CoacdParams, decompose, split_support_hulls
 from vpro_assets.exporters import ExportMesh, urdf_text, usd_text
 from vpro_assets.meshes import (MeshError, content_name, load_libero_object, normals_to_indexed, obj_bytes, sha256_bytes,
                                 soup_to_indexed)
@@ -85,6 +85,8 @@ def build_object(*, name, category, deformation, severity, setting, xml_path: Pa
     t2 = time.perf_counter()
     v_simple, f_simple = manifold_arrays(solid.simplify(extent * COACD_SIMPLIFY_FRACTION))
     hulls = decompose(v_simple, f_simple, coacd_params, f"{category} {deformation} s{severity}")
+    hulls = split_support_hulls(hulls, frame.rotation[2], (frame.rotation[0], frame.rotation[1]),
+                                f"{category} {deformation} s{severity}")
     timings["coacd"] = time.perf_counter() - t2
 
     # 4. files

@@ -152,3 +152,20 @@ def test_written_visual_mesh_has_the_original_texture_coordinates_in_mujoco(tmp_
     original = texcoords(xml.parent / mesh_el.get("file"), mesh_el.get("scale", "1 1 1"))
     written = texcoords(tmp_path / "part.obj", "1 1 1")
     np.testing.assert_allclose(written, original, atol=2e-4)
+
+
+def test_a_single_supporting_hull_is_split_into_quadrants():
+    import trimesh
+
+    from vpro_assets.convex import split_support_hulls
+
+    box = trimesh.creation.box((0.08, 0.04, 0.02))
+    top = trimesh.creation.box((0.02, 0.02, 0.02))
+    top.apply_translation((0, 0, 0.02))
+    up, across = np.array([0, 0, 1.0]), (np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
+    hulls = split_support_hulls([box, top], up, across, "test")
+    assert len(hulls) == 5
+    assert sum(h.volume for h in hulls) == pytest.approx(box.volume + top.volume, rel=1e-6)
+    assert all(h.is_convex for h in hulls)
+    many = [trimesh.creation.box((0.01, 0.01, 0.01)).apply_translation((x, 0, 0)) for x in (0, 0.02, 0.04)]
+    assert split_support_hulls(many, up, across, "test") == many  # enough supports already

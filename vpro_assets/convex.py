@@ -72,3 +72,49 @@ def decompose(vertices: np.ndarray, faces: np.ndarray, params: CoacdParams, what
         raise MeshError(f"{what}: coacd gave {len(hulls)} usable hulls, outside {MIN_HULLS}..{MAX_HULLS}")
     hulls.sort(key=lambda h: tuple(quantize(np.asarray(h.vertices).mean(axis=0))))
     return hulls
+
+
+SUPPORT_TOLERANCE = 0.0005  # metres: a hull within this of the solid's bottom carries the object
+MIN_SUPPORT_HULLS = 3
+
+
+def split_support_hulls(hulls: list, up: np.ndarray, across: tuple[np.ndarray, np.ndarray], what: str) -> list:
+    """Give a resting object several supporting hulls.
+
+    MuJoCo makes one contact per convex pair (LIBERO does not enable multi-contact), so an object
+    standing on a single bottom hull rests on one point at a time and buzzes. When fewer than
+    MIN_SUPPORT_HULLS hulls reach the bottom plane, each that does is cut into quadrants by the two
+    vertical planes (`across`, unit vectors) through its centroid (manifold3d `split_by_plane`);
+    the pieces are convex and cover the same volume.
+    """
+    import manifold3d
+    import trimesh
+
+    heights = [float((np.asarray(h.vertices) @ up).min()) for h in hulls]
+    bottom = min(heights)
+    support = [i for i, h in enumerate(heights) if h - bottom <= SUPPORT_TOLERANCE]
+    if len(support) >= MIN_SUPPORT_HULLS:
+        return hulls
+    out = [h for i, h in enumerate(hulls) if i not in support]
+    for i in support:
+        hull = hulls[i]
+        pieces = [manifold3d.Manifold(manifold3d.Mesh(
+            vert_properties=np.ascontiguousarray(hull.vertices, np.float32),
+            tri_verts=np.ascontiguousarray(hull.faces, np.uint32)))]
+        centre = np.asarray(hull.vertices).mean(axis=0)
+        for normal in across:
+            offset = float(centre @ normal)
+            pieces = [part for piece in pieces for part in piece.split_by_plane(tuple(map(float, normal)), offset)]
+        for piece in pieces:
+            if piece.is_empty() or piece.volume() <= 0:
+                continue
+            mesh = piece.to_mesh()
+            points = quantize(np.asarray(mesh.vert_properties, np.float64)[:, :3])
+            if len(np.unique(points, axis=0)) >= 4:
+                part = trimesh.convex.convex_hull(points)
+                if part.volume > 0:
+                    out.append(part)
+    if len(out) > MAX_HULLS:
+        raise MeshError(f"{what}: {len(out)} hulls after splitting the supporting ones, above {MAX_HULLS}")
+    out.sort(key=lambda h: tuple(quantize(np.asarray(h.vertices).mean(axis=0))))
+    return out

@@ -103,7 +103,8 @@ def object_xml(
 
 
 def drop_test_xml(object_xml_path, pos=(0.0, 0.0, 0.05), quat=(1.0, 0.0, 0.0, 0.0)) -> str:
-    """A world with robosuite's compiler settings: a floor plane and the object on a free joint.
+    """A world with robosuite's compiler settings: a table-top box (top face at z = 0, as LIBERO's
+    tables are boxes) and the object on a free joint.
 
     File paths are made absolute, so the world compiles from a string anywhere.
     """
@@ -121,7 +122,7 @@ def drop_test_xml(object_xml_path, pos=(0.0, 0.0, 0.05), quat=(1.0, 0.0, 0.0, 0.
             element.set("file", str((path.parent / element.get("file")).resolve()))
         asset.append(element)
     worldbody = ET.SubElement(world, "worldbody")
-    ET.SubElement(worldbody, "geom", {"name": "floor", "type": "plane", "size": "1 1 0.1"})
+    ET.SubElement(worldbody, "geom", {"name": "table", "type": "box", "size": "0.5 0.5 0.05", "pos": "0 0 -0.05"})
     body = ET.fromstring(ET.tostring(src.find("./worldbody/body/body[@name='object']")))
     body.set("pos", fmt_fixed(pos))
     body.set("quat", fmt_fixed(quat))
@@ -148,7 +149,7 @@ class DropResult:
 
 def drop_test(object_xml_path, up_axis: str = "+z", clearance: float = 0.003, seconds: float = 2.0,
               window: float = 0.5) -> DropResult:
-    """Drop the object (upright, `clearance` above the floor) on a plane and measure how it rests."""
+    """Drop the object (upright, `clearance` above the table top) and measure how it rests."""
     import mujoco
 
     rotate = {"+z": (1.0, 0.0, 0.0, 0.0), "+y": (np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0)}
