@@ -20,7 +20,7 @@ from ..errors import VProError
 from .backends import run_jobs
 from .episode import EpisodeSettings
 from .jobs import make_job
-from .spec import make_policy, policy_label
+from .spec import check_spec, policy_label
 from .store import ResultsStore
 
 log = logging.getLogger(__name__)
@@ -60,7 +60,7 @@ def run_eval(cases: Sequence[dict], *, results: Path | str, policy_spec: str, po
     for case in cases:
         if trials > len(case["trial_seeds"]):
             raise VProError(f"--trials {trials}: case {case['id']} has {len(case['trial_seeds'])} trials")
-    make_policy(policy_spec, policy_options)  # fail fast on a bad spec, before any worker starts
+    check_spec(policy_spec)  # fail fast on a bad spec, before any worker starts
     pid = policy_label(policy_spec, policy_options)
     started = time.monotonic()
     with ResultsStore(results) as store:

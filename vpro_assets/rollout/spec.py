@@ -40,6 +40,24 @@ def make_policy(spec: str, options: Mapping[str, Any] | None = None):
                     "or py:MODULE:ATTR")
 
 
+def check_spec(spec: str) -> None:
+    """Fail fast on a spec that cannot work, without building the policy (no model is loaded)."""
+    from .callable_adapter import load_attribute
+    from .reference import make_oracle, oracle_available
+
+    if spec in REFERENCE_POLICIES:
+        if spec == "oracle" and not oracle_available():
+            make_oracle()  # raises the explanatory error
+        return
+    if spec.startswith(("openpi:", "ws://")):
+        parse_openpi(spec)
+        return
+    target = spec[3:] if spec.startswith("py:") else spec
+    if ":" not in target:
+        make_policy(spec)  # raises the "unknown policy" error
+    load_attribute(target)
+
+
 def policy_label(spec: str, options: Mapping[str, Any] | None = None) -> str:
     """The policy id recorded in every row (the user's --policy-id if given)."""
     options = options or {}
