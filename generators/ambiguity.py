@@ -4,15 +4,19 @@ visual-only geometry (never collides, never moves), so both states are seen at o
 - object_pose: an upside-down, visual-only copy of the target (a fixture: no joint, no collision
   geometry) stands at the free spot nearest the target (the distractors' spot rule); the real
   target starts upright as in LIBERO.
-- receptacle_openness: no generator yet (see the report of issue 4); building such a case fails
-  with a message saying so.
+- receptacle_openness: a visual-only copy of the receptacle's moving part (drawer, door) in the
+  other state (the middle of LIBERO's open or closed range for that joint) is overlaid on the real
+  fixture: both are fixtures placed at one region, the centre of the fixture's own region with its
+  yaw fixed to the middle of LIBERO's range (LIBERO jitters each within 0.5 mm). The real drawer or
+  door keeps its state and is the only one that collides or moves.
 """
 from __future__ import annotations
 
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.pose import INVERT, class_quat, quat_mul
 from vpro_assets.scene.variant import SceneVariant
-from vpro_assets.scene.visual_only import ghost_object
+from vpro_assets.scene.bddl_doc import Region
+from vpro_assets.scene.visual_only import articulation_ghost, ghost_object
 
 from . import register
 
@@ -38,4 +42,41 @@ def object_pose(ctx: GenContext) -> SceneVariant:
         generated_objects=[ghost], added=[instance],
         details={"target": target, "visual_only": instance, "pose": "inverted",
                  "nominal_xy": [round(float(v), 4) for v in spot]},
+    )
+
+
+FIXTURE_REGION_HALF = 0.0005  # m
+
+
+@register("visual_state_ambiguity/receptacle_openness")
+def receptacle_openness(ctx: GenContext) -> SceneVariant:
+    """The receptacle's drawer or door is also drawn, visual-only, in the other open/closed state."""
+    from .precondition import openness_flip
+
+    replace, joints, new_state = openness_flip(ctx)
+    fixture = ctx.task.receptacle
+    category = ctx.task.category_of(fixture)
+    joint = joints[0]
+    value = (joint.low + joint.high) / 2
+    ghost = articulation_ghost(category, joint.joint.removeprefix(f"{fixture}_"), value,
+                               "open" if new_state == "open" else "closed")
+    old = ctx.init_of(fixture)
+    old_region = ctx.base.bddl.parsed["regions"][old.strip("()").split()[2]]
+    x0, y0, x1, y1 = old_region["ranges"][0]
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    yaw = sum(old_region["yaw_rotation"]) / 2
+    h = FIXTURE_REGION_HALF
+    region = Region("vpro_fixture_region", old_region["target"], (round(cx - h, 5), round(cy - h, 5),
+                                                                  round(cx + h, 5), round(cy + h, 5)), (yaw, yaw))
+    instance = ctx.new_instance(ghost.name)
+    return SceneVariant(
+        case_id=ctx.case_id, generator="visual_state_ambiguity/receptacle_openness",
+        summary=f"{fixture} also shows its {joint.joint.removeprefix(fixture + '_')} {new_state}d, visual-only",
+        objects=list(ctx.base.bddl.objects), fixtures=list(ctx.base.bddl.fixtures) + [(instance, ghost.name)],
+        regions=[region],
+        init=ctx.init_with(replace={old: f"(On {fixture} {region.full_name})"},
+                           add=[f"(On {instance} {region.full_name})"]),
+        generated_objects=[ghost], added=[instance],
+        details={"receptacle": fixture, "visual_only": instance, "shown_state": new_state, "joint": joint.joint,
+                 "joint_value": round(value, 5)},
     )

@@ -75,7 +75,7 @@ def test_generator_registry_refuses_duplicates():
     import generators
 
     reg = generators.registry()
-    assert len(reg) == 21  # 6 distractors + 2 preconditions + 1 ambiguity + 12 geometry
+    assert len(reg) == 22  # 6 distractors + 2 preconditions + 2 ambiguity + 12 geometry
     name = "task_relevant_distractors/same_color"
     with pytest.raises(generators.GeneratorError, match="already registered"):
         generators.register(name)(lambda ctx: None)

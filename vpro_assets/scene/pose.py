@@ -64,3 +64,9 @@ def class_quat(obj, rng: np.random.Generator | None = None) -> np.ndarray:
             q = _xyzw_mul(_xyzw_axis(axis, _angle(bounds, rng)), q)
         return q
     return _xyzw_axis(getattr(obj, "rotation_axis", None) or "z", _angle(rot, rng))
+
+
+def axis_angle_quat(axis, angle: float) -> np.ndarray:
+    axis = np.asarray(axis, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    return np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * axis])

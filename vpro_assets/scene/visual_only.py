@@ -19,18 +19,47 @@ from .pool import object_file
 from .variant import GeneratedObject
 
 
+def _geom_defaults(root: ET.Element) -> dict[str, dict]:
+    """MJCF default classes -> the geom attributes they set (nested defaults inherit)."""
+    out: dict[str, dict] = {}
+
+    def walk(node: ET.Element, inherited: dict) -> None:
+        attrs = dict(inherited)
+        geom = node.find("geom")
+        if geom is not None:
+            attrs.update(geom.attrib)
+        out[node.get("class", "main")] = attrs
+        for child in node.findall("default"):
+            walk(child, attrs)
+
+    for top in root.findall("default"):
+        walk(top, {})
+    return out
+
+
 def _visual_geoms(root: ET.Element) -> None:
-    for parent in root.iter():
-        for geom in list(parent.findall("geom")):
-            colliding = geom.get("contype", "1") != "0" or geom.get("conaffinity", "1") != "0"
-            if colliding or geom.get("group", "0") == "0":
-                parent.remove(geom)
+    """Keep only visual geoms (resolving default classes), marked visual-only explicitly."""
+    defaults = _geom_defaults(root)
+
+    def visit(node: ET.Element, childclass: str) -> None:
+        childclass = node.get("childclass", childclass)
+        for geom in list(node.findall("geom")):
+            attrs = dict(defaults.get(geom.get("class", childclass), {}))
+            attrs.update(geom.attrib)
+            colliding = attrs.get("contype", "1") != "0" or attrs.get("conaffinity", "1") != "0"
+            if colliding or attrs.get("group", "0") == "0":
+                node.remove(geom)
             else:
                 geom.set("contype", "0")
                 geom.set("conaffinity", "0")
                 geom.set("group", "1")
                 for key in ("density", "mass", "solimp", "solref", "friction"):
                     geom.attrib.pop(key, None)
+        for child in node.findall("body"):
+            visit(child, childclass)
+
+    for body in root.findall("./worldbody/body"):
+        visit(body, "main")
 
 
 def _extent(xml_text: str, directory: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -100,4 +129,65 @@ def write_ghost(source: str, name: str, quat, sink: float, directory: Path) -> P
 def ghost_object(source: str, label: str, quat, sink: float) -> GeneratedObject:
     name = ghost_name(source, label, quat, sink)
     return GeneratedObject(name=name, write=lambda directory: write_ghost(source, name, quat, sink, directory),
+                           template=None, fingerprint=name)
+
+
+def _rotate_about(body: ET.Element, joint: ET.Element, angle: float) -> None:
+    """Turn `body` (and what it carries) by `angle` about its hinge `joint` (axis through its pos)."""
+    from .pose import axis_angle_quat, quat_mul
+
+    axis = np.array([float(v) for v in joint.get("axis", "0 0 1").split()])
+    jp = np.array([float(v) for v in joint.get("pos", "0 0 0").split()])
+    pos = np.array([float(v) for v in body.get("pos", "0 0 0").split()])
+    quat = np.array([float(v) for v in body.get("quat", "1 0 0 0").split()])
+    turn = axis_angle_quat(axis, angle)
+    rb = quat_matrix(quat)
+    new_pos = pos + rb @ (jp - quat_matrix(turn) @ jp)
+    body.set("pos", " ".join(f"{v:.6f}" for v in new_pos))
+    body.set("quat", " ".join(f"{v:.6f}" for v in quat_mul(quat, turn)))
+
+
+def write_articulation_ghost(source: str, name: str, joint_name: str, value: float, directory: Path) -> Path:
+    """A visual-only copy of the part of `source` that `joint_name` moves, set to `value` (the
+    other state), with the source's placement sites, so placed at the source's spot it shows that
+    part in the other state over the real one."""
+    src_xml = Path(object_file(source))
+    root = ET.parse(src_xml).getroot()
+    inner = root.find("./worldbody/body/body[@name='object']")
+    moving = next((b for b in inner.iter("body") if b.find(f"joint[@name='{joint_name}']") is not None), None)
+    if moving is None:
+        raise ValueError(f"{src_xml.name} has no body moved by joint {joint_name!r}")
+    joint = moving.find(f"joint[@name='{joint_name}']")
+    kept = set(id(e) for e in moving.iter())
+    for parent in inner.iter():
+        for child in list(parent):
+            if child.tag in ("joint", "site", "inertial") or (child.tag == "geom" and id(child) not in kept):
+                parent.remove(child)
+    _visual_geoms(root)
+    if joint.get("type", "hinge") == "slide":
+        axis = np.array([float(v) for v in joint.get("axis", "0 0 1").split()])
+        pos = np.array([float(v) for v in moving.get("pos", "0 0 0").split()]) + axis * value
+        moving.set("pos", " ".join(f"{v:.6f}" for v in pos))
+    else:
+        _rotate_about(moving, joint, value)
+    directory.mkdir(parents=True, exist_ok=True)
+    for element in root.iter():
+        rel = element.get("file")
+        if rel:
+            base = src_xml.parent / (root.find("compiler").get("meshdir", "") if root.find("compiler") is not None
+                                     and element.tag == "mesh" else "")
+            (directory / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(base / rel, directory / rel)
+    root.set("model", name)
+    ET.indent(root)
+    out = directory / f"{name}.xml"
+    out.write_bytes(ET.tostring(root, encoding="utf-8") + b"\n")
+    return out
+
+
+def articulation_ghost(source: str, joint_name: str, value: float, label: str) -> GeneratedObject:
+    key = hashlib.sha256(f"v2|{source}|{joint_name}|{value:.6f}".encode()).hexdigest()[:8]
+    name = f"vpro_ghost_{source}_{label}_{key}"
+    return GeneratedObject(name=name,
+                           write=lambda directory: write_articulation_ghost(source, name, joint_name, value, directory),
                            template=None, fingerprint=name)
