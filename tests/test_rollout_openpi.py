@@ -13,7 +13,8 @@ from vpro_assets.catalog import find_case, load_catalog
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode
 from vpro_assets.rollout.openpi_adapter import OpenpiPolicy, build_request, quat2axisangle
 from vpro_assets.rollout.openpi_server import LoopbackPolicyServer
-from vpro_assets.rollout.policy import EpisodeInfo, Observation, PolicyOutputError
+from vpro_assets.rollout.policy import (EpisodeInfo, Observation, PolicyConnectionError, PolicyOutputError,
+                                         PolicyTimeoutError)
 from vpro_assets.rollout.runner import run_eval
 from vpro_assets.rollout.store import ResultsStore
 
@@ -80,33 +81,55 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-# Two trials where it is cheap or where it shows the run going on past a failed episode.
-@pytest.mark.parametrize("fault,kind,message,trials", [
-    ("refused", "PolicyConnectionError", "cannot connect", 2),
-    ("slow", "PolicyTimeoutError", "no reply within", 1),
-    ("nan", "PolicyOutputError", "non-finite action value", 2),
-    ("shape", "PolicyOutputError", "expected actions of shape (H, 7)", 1),
-    ("error", "PolicyOutputError", "injected server failure", 1),
+@pytest.mark.parametrize("fault,error,message", [
+    ("refused", PolicyConnectionError, "cannot connect"),
+    ("slow", PolicyTimeoutError, "no reply within 0.3 s"),
+    ("nan", PolicyOutputError, "non-finite action value nan at chunk index 0, dimension 2"),
+    ("shape", PolicyOutputError, "expected actions of shape (H, 7) with H >= 1, got shape (10, 6)"),
+    ("error", PolicyOutputError, "error reply: Traceback"),
 ])
-def test_faults_are_recorded_errors_and_the_run_goes_on(tmp_path, normal_case, fault, kind, message, trials):
+def test_adapter_turns_each_fault_into_a_clear_infrastructure_error(fault, error, message):
+    server = None if fault == "refused" else LoopbackPolicyServer(fault=fault, fault_count=1, delay=1.0).start()
+    policy = OpenpiPolicy("127.0.0.1", _free_port() if server is None else server.port, infer_timeout=0.3,
+                          connect_timeout=2.0)
+    obs = _obs({"agentview": np.zeros((64, 64, 3), np.uint8), "robot0_eye_in_hand": np.zeros((64, 64, 3), np.uint8)})
+    try:
+        with pytest.raises(error) as caught:
+            policy.reset(EpisodeInfo("x", "c", 0, 0, "s", "t"))
+            policy.act(obs)
+        assert message in str(caught.value)
+        if server is not None:  # the next request succeeds, on a new connection after a broken stream
+            assert policy.act(obs).actions.shape == (10, 7)
+            assert server.connections == (2 if fault in ("slow", "error") else 1)
+    finally:
+        policy.close()
+        if server is not None:
+            server.stop()
+
+
+@pytest.mark.parametrize("fault,kind,message", [
+    ("refused", "PolicyConnectionError", "cannot connect"),
+    ("nan", "PolicyOutputError", "non-finite action value"),
+])
+def test_faults_are_recorded_errors_retried_and_the_run_goes_on(tmp_path, normal_case, fault, kind, message):
     db = tmp_path / "r.sqlite"
-    server = None if fault == "refused" else LoopbackPolicyServer(fault=fault, fault_count=10**6, delay=1.5).start()
+    server = None if fault == "refused" else LoopbackPolicyServer(fault=fault, fault_count=10**6).start()
     port = _free_port() if server is None else server.port
     try:
         summary = run_eval([normal_case], results=db, policy_spec=f"openpi:127.0.0.1:{port}",
-                           policy_options={"infer_timeout": 0.4, "connect_timeout": 2.0}, settings=FAST, trials=trials,
+                           policy_options={"infer_timeout": 5.0, "connect_timeout": 2.0}, settings=FAST, trials=2,
                            backend="inline", retries=1, retry_delay=0)
     finally:
         if server is not None:
             server.stop()
     rows = ResultsStore(db).episodes(summary.run_id)
-    assert [(r["case_id"], r["trial"]) for r in rows] == [(normal_case["id"], t) for t in range(trials)]
+    assert [(r["case_id"], r["trial"]) for r in rows] == [(normal_case["id"], t) for t in range(2)]
     for row in rows:  # both trials ran: the first failure did not stop the run
         assert row["status"] == "error" and row["success"] is None
         assert row["error_kind"] == kind and message in row["error"] and "after 2 attempt(s)" in row["error"]
         assert row["attempts"] == 2
     if server is not None:
-        assert server.connections == 2 * trials  # a fresh connection for each attempt
+        assert server.connections == 4  # a fresh connection for each attempt
 
 
 def test_transient_fault_is_retried_into_a_result(tmp_path, normal_case):
