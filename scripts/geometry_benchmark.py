@@ -152,7 +152,7 @@ def summary(results: Path, shapes: Path) -> str:
                   f"{estimate / 60:.0f} min in one process on this machine; objects are independent, so the build "
                   "divides this by its worker count."]
         rests = sum(r["drop"]["rests"] and not r["drop"]["warnings"] for r in dropped)
-        lines += ["", f"Drop test (2 s on a plane, LIBERO's contact parameters): {rests} of {len(dropped)} objects "
+        lines += ["", f"Drop test (2 s on a table-top box, LIBERO's contact parameters): {rests} of {len(dropped)} objects "
                   "compile without MuJoCo warning and rest (tilt under 5 degrees, drift under 1 mm and turn under "
                   f"1 degree over the last 0.5 s); largest speed over the last 0.5 s "
                   f"{max(r['drop']['speed'] for r in dropped):.4f} m/s, largest tilt "
