@@ -1,9 +1,10 @@
 """Task-Relevant Distractors: six generators, each adding one object chosen by a stated rule.
 
 Choice rules (over the pool of LIBERO's movable objects, `vpro_assets.scene.pool`; ties broken by
-name, so every choice is deterministic):
-- same_category: an object of the target's category (another model), else of its family; the
-  closest in size.
+name, so every choice is deterministic; for the four "same ..." rules the best-ranked candidate
+that has a free spot near the target is used):
+- same_category: an object of the target's category (another model), else of its family, else
+  of its grasp class; the closest in size within a tier.
 - same_color: the object of another family closest in size, recoloured with the target's
   dominant colour (a generated MJCF object registered under its own name).
 - same_shape: the object of another category whose bounding-box aspect ratios are closest.
@@ -40,19 +41,24 @@ def _size_gap(a: pool_mod.PoolObject, b: pool_mod.PoolObject) -> float:
     return abs(math.log(a.size / b.size))
 
 
-def _pick(ctx: GenContext, candidates: list, key, rule: str) -> pool_mod.PoolObject:
+def _pick(ctx: GenContext, candidates: list, key, rule: str) -> list[pool_mod.PoolObject]:
     if not candidates:
         raise ctx.fail(f"the {rule} rule finds no object in the pool for target {ctx.task.target_category!r}")
-    return sorted(candidates, key=lambda p: (key(p), p.name))[0]
+    return sorted(candidates, key=lambda p: (key(p), p.name))
 
 
-def choose(ctx: GenContext, rule: str) -> pool_mod.PoolObject:
+def choose(ctx: GenContext, rule: str) -> list[pool_mod.PoolObject]:
+    """The rule's candidates, best first (the first that fits the scene is used)."""
     target = ctx.target_pool()
     others = [p for p in pool_mod.pool().values() if p.name != target.name]
     size = lambda p: _size_gap(p, target)  # noqa: E731
     if rule in ("same_category", "familiar_position"):
-        same = [p for p in others if p.category == target.category]
-        return _pick(ctx, same or [p for p in others if p.family == target.family], size, rule)
+        # Tiers: the target's category, then its family, then its grasp class; closest size first.
+        tiers = [[p for p in others if p.category == target.category],
+                 [p for p in others if p.family == target.family and p.category != target.category],
+                 [p for p in others if p.grasp == target.grasp and p.family != target.family]]
+        ranked = [q for tier in tiers for q in sorted(tier, key=lambda p: (size(p), p.name))]
+        return _pick(ctx, ranked, lambda p: ranked.index(p), rule)
     if rule == "same_color":
         return _pick(ctx, [p for p in others if p.family != target.family], size, rule)
     if rule == "same_shape":
@@ -91,9 +97,16 @@ def _variant(ctx: GenContext, rule: str, category: str, spot: np.ndarray, summar
 
 
 def _near_target(ctx: GenContext, rule: str):
-    chosen = choose(ctx, rule)
-    spot = ctx.free_spot(ctx.familiar_xy(ctx.task.target), chosen.footprint_radius)
-    return chosen, spot
+    """The best candidate that has a free spot near the target, and that spot."""
+    from generators import GeneratorError
+
+    errors = []
+    for chosen in choose(ctx, rule):
+        try:
+            return chosen, ctx.free_spot(ctx.familiar_xy(ctx.task.target), chosen.footprint_radius)
+        except GeneratorError as exc:
+            errors.append(f"{chosen.name}: {exc}")
+    raise ctx.fail(f"no {rule} candidate fits near the target ({'; '.join(errors[:3])})")
 
 
 @register("task_relevant_distractors/same_category")
@@ -134,7 +147,7 @@ def same_color(ctx: GenContext) -> SceneVariant:
 @register("task_relevant_distractors/familiar_position")
 def familiar_position(ctx: GenContext) -> SceneVariant:
     """A same-category object takes the target's familiar position; the target moves nearby."""
-    chosen = choose(ctx, "familiar_position")
+    chosen = choose(ctx, "familiar_position")[0]
     target = ctx.task.target
     familiar = ctx.familiar_xy(target)
     t_radius = ctx.target_pool().footprint_radius
@@ -158,7 +171,7 @@ def familiar_position(ctx: GenContext) -> SceneVariant:
 @register("task_relevant_distractors/trajectory_obstacle")
 def trajectory_obstacle(ctx: GenContext) -> SceneVariant:
     """Adds an object on the straight path from the target to where the goal puts it."""
-    chosen = choose(ctx, "trajectory_obstacle")
+    chosen = choose(ctx, "trajectory_obstacle")[0]
     start, end = ctx.familiar_xy(ctx.task.target), ctx.destination_xy()
     radius = chosen.footprint_radius
     mid = start + 0.5 * (end - start)

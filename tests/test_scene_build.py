@@ -1,8 +1,8 @@
 """Scene cases build, validate and rebuild byte for byte; bad input fails cleanly.
 
 Default run: a stratified sample (one case per generator family that needs no long mesh work:
-a recoloured distractor, which registers a generated object, and a precondition that flips an
-articulation). Full set (every scene case, including geometry cases whose deformed meshes take
+a recoloured distractor, which registers a generated object; a precondition that flips an
+articulation; a visual-only ambiguity copy). Full set (every scene case, including geometry cases whose deformed meshes take
 coacd tens of seconds each): `.venv/bin/python -m pytest -m slow tests/test_scene_build.py`.
 """
 from __future__ import annotations
@@ -18,6 +18,7 @@ from vpro_assets import paths
 SAMPLE = (
     "libero_spatial-00/task_relevant_distractors/same_color-v1",
     "libero_goal-03/task_precondition_variation/receptacle_openness-v1",
+    "libero_goal-03/visual_state_ambiguity/object_pose-v1",
 )
 
 
@@ -56,10 +57,10 @@ def test_sample_case_builds_validates_and_rebuilds_identically(catalog, out_dir,
     assert v.ok, v.problems
     # Unchanged inputs: not rebuilt.
     assert build.build_case(case).status == "unchanged"
-    # Forced rebuild: the same bytes for every artifact.
-    again = build.build_case(case, force=True)
-    assert again.files == first.files
-    assert {p.name: p.read_bytes() for p in d.iterdir()} == files
+    if cid == SAMPLE[0]:  # forced rebuild (kept to one case for time): the same bytes for every artifact
+        again = build.build_case(case, force=True)
+        assert again.files == first.files
+        assert {p.name: p.read_bytes() for p in d.iterdir()} == files
 
 
 def test_state_that_cannot_settle_names_case_and_leaves_nothing(catalog, out_dir, monkeypatch):

@@ -37,7 +37,7 @@ from .context import GenContext
 
 log = logging.getLogger(__name__)
 
-BUILD_VERSION = 1
+BUILD_VERSION = 2  # bump when what a build writes changes without a generator's version changing
 META = "meta.json"
 
 
@@ -75,13 +75,15 @@ class CaseResult:
     files: dict = field(default_factory=dict)  # relative path -> sha256
 
 
-def input_hash(case: dict, generator, base) -> str:
+def input_hash(case: dict, generator) -> str:
     from . import pool as pool_mod
 
     from ..catalog import library_versions
 
-    task = base.task
     from .. import libero_bridge
+    from ..tasks import get_task
+
+    task = get_task(case["task"])
 
     h = hashlib.sha256()
     for part in (
@@ -155,14 +157,14 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
     cid = case["id"]
     generator = generators.generator_for(case)
     stages: dict[str, float] = {}
-    t = time.perf_counter()
-    base = base_scene(case["task"])
-    stages["base_scene"] = time.perf_counter() - t
-    key = input_hash(case, generator, base)
+    key = input_hash(case, generator)  # cheap: no simulation, so a warm rebuild is quick
     if not force:
         meta = _is_current(cid, key)
         if meta is not None:
             return CaseResult(cid, "unchanged", time.perf_counter() - started, stages, files=meta["files"])
+    t = time.perf_counter()
+    base = base_scene(case["task"])
+    stages["base_scene"] = time.perf_counter() - t
 
     t = time.perf_counter()
     ctx = GenContext(case=case, base=base)
@@ -189,7 +191,9 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
         stages["variant_env"] = time.perf_counter() - t
         t = time.perf_counter()
         try:
-            rows = [trial_state(env, variant, base.rows[k], base.slots, k) for k in range(len(case["trial_seeds"]))]
+            rows = [trial_state(env, variant, base.rows[k], base.slots, k,
+                                {n: float(v["lo"][2]) for n, v in base.layouts[k].items()})
+                    for k in range(len(case["trial_seeds"]))]
         finally:
             env.close()
         stages["settle"] = time.perf_counter() - t

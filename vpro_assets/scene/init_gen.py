@@ -54,8 +54,10 @@ def _clear(xy: np.ndarray, radius: float, others: list[tuple[np.ndarray, np.ndar
     return True
 
 
-def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]) -> None:
-    """Apply the variant's placements to the loaded state (positions, poses, heights)."""
+def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str], base_lows: dict) -> None:
+    """Apply the variant's placements to the loaded state (positions, poses, heights). An object
+    that keeps its LIBERO place (a turned or replaced target) keeps its lowest point where LIBERO's
+    object had it (on the table, in a drawer); a moved or added one goes onto the table surface."""
     data = sim.raw(env).sim.data
     raw = sim.raw(env)
     layout = sim.body_layout(env)
@@ -96,7 +98,8 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
         data.set_joint_qpos(joint, qpos)
         raw.sim.forward()
         lo = sim.body_layout(env)[p.instance]["lo"][2]
-        qpos[2] += support + SUPPORT_GAP - lo
+        floor = base_lows[p.instance] if p.keep_xy and p.instance in base_lows else support
+        qpos[2] += floor + SUPPORT_GAP - lo
         data.set_joint_qpos(joint, qpos)
         data.set_joint_qvel(joint, np.zeros(6))
         raw.sim.forward()
@@ -128,8 +131,10 @@ def drift(env, steps: int = sim.SETTLE_STEPS) -> list[str]:
     return out
 
 
-def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: dict, trial: int) -> np.ndarray:
-    """One accepted, settled initial state (a LIBERO state row) for `trial` of the case."""
+def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: dict, trial: int,
+                base_lows: dict | None = None) -> np.ndarray:
+    """One accepted, settled initial state (a LIBERO state row) for `trial` of the case.
+    `base_lows`: instance -> lowest point of its geometry in LIBERO's state of this trial."""
     added = set(variant.added)
     reasons: list[str] = []
     for attempt in range(MAX_ATTEMPTS):
@@ -141,7 +146,7 @@ def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: di
             raw.sim.data.set_joint_qpos(js.joint, rng.uniform(js.low, js.high))
         raw.sim.forward()
         try:
-            _place(env, variant, rng, added)
+            _place(env, variant, rng, added, base_lows or {})
         except InitStateError as exc:
             reasons.append(f"attempt {attempt}: {exc}")
             continue

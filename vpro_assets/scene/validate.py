@@ -3,7 +3,7 @@
 For each case: the BDDL parses with LIBERO's parser and keeps the task's language and goal; every
 generated object's MJCF compiles alone; LIBERO builds the env from the BDDL; the scene's MJCF
 (`sim.model.get_xml()`) compiles again in MuJoCo with no warning; every frozen initial state has
-the model's width and loads; and one second of zero actions from each leaves every object at rest
+the model's width and loads; visual-only additions have no geom that can collide; and one second of zero actions from each leaves every object at rest
 (moved less than 1 cm, slower than 2 cm/s) with no MuJoCo warning raised while stepping.
 """
 from __future__ import annotations
@@ -74,6 +74,15 @@ def validate_case(case: dict) -> Validation:
         except Exception as exc:
             problems.append(f"the scene MJCF does not compile again in MuJoCo: {exc}")
         m = sim.raw(env).sim.model._model
+        for instance in found["meta"].get("added", []):
+            fixture = sim.raw(env).fixtures_dict.get(instance)
+            if fixture is None:
+                continue  # an added movable object (a distractor)
+            root = sim.raw(env).sim.model.body_name2id(fixture.root_body)
+            touching = [g for g in range(m.ngeom) if int(m.body_rootid[m.geom_bodyid[g]]) == root
+                        and (m.geom_contype[g] or m.geom_conaffinity[g])]
+            if touching:
+                problems.append(f"visual-only {instance} has {len(touching)} geom(s) that can collide")
         states = read_init_states(found["init_states"])
         npz = np.load(found["init_states_npz"])["states"]
         if not np.array_equal(states, npz):
