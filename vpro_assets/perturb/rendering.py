@@ -14,6 +14,7 @@ the context on every hard reset, so the hook is installed again after each reset
 from __future__ import annotations
 
 import logging
+import time
 from typing import Callable, Mapping
 
 import mujoco
@@ -99,6 +100,7 @@ class RenderHook:
         self.edits = dict(edits)
         self._ctx = None
         self._by_id: dict[int, SceneEdit] = {}
+        self.edit_seconds = 0.0  # time spent in scene edits (for the cost benchmark)
 
     def install(self, sim) -> None:
         self.uninstall()
@@ -107,10 +109,19 @@ class RenderHook:
 
         def hooked_render(width, height, camera_id=None, segmentation=False):
             edit = None if segmentation else self._by_id.get(camera_id)
-            draw(ctx, width, height, camera_id, edit, segmentation)
+            draw(ctx, width, height, camera_id, self._timed(edit) if edit else None, segmentation)
 
         ctx.render = hooked_render  # instance attribute shadows the class method
         self._ctx = ctx
+
+    def _timed(self, edit: SceneEdit) -> SceneEdit:
+        def timed(scn):
+            t0 = time.perf_counter()
+            try:
+                edit(scn)
+            finally:
+                self.edit_seconds += time.perf_counter() - t0
+        return timed
 
     def uninstall(self) -> None:
         if self._ctx is not None and "render" in vars(self._ctx):
