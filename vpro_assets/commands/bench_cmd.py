@@ -41,7 +41,12 @@ def add_parser(sub) -> None:
                        "the step time of the perturbed env against the clean env in one interleaved run and "
                        "writes the ratios to a JSON file and a table to docs/benchmarks.md.")
     bsub = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
-    q = bsub.add_parser("perturb", help="step-time ratio of each observation setting against the clean env")
+    q = bsub.add_parser("perturb", help="step-time ratio of each observation setting against the clean env",
+                        description="For each observation-level setting, run scripted episodes on one env with "
+                        "clean and perturbed blocks interleaved; report the wall-clock step-time ratio, the "
+                        "pipeline's own added work, whether extra renders (masks, scene edits) are needed, and "
+                        "the goal (<= 1.05 without extra render, <= 1.30 with). Writes a JSON list and the "
+                        "'perturb' section of docs/benchmarks.md.")
     q.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="JSON file to write")
     q.add_argument("--select", action="append", metavar="FILTER",
                    help="narrow to settings by setting id, category, dimension or case (repeatable); default: all 74")
