@@ -95,3 +95,22 @@ def test_libero_init_format_matches_libero_and_roundtrips(tmp_path):
     assert state_files.libero_init_bytes(states) == data
     (tmp_path / "x.npz").write_bytes(state_files.npz_bytes(states))
     assert np.array_equal(state_files.read_npz(tmp_path / "x.npz"), states)
+
+
+def test_catalog_artifact_check_reports_changed_and_unbuilt_files(tmp_path, monkeypatch):
+    import hashlib
+
+    from vpro_assets.scene import lock
+
+    monkeypatch.setenv("VPRO_OUT", str(tmp_path))
+    good, bad = tmp_path / "scene/a/x.bddl", tmp_path / "scene/a/y.npz"
+    good.parent.mkdir(parents=True)
+    good.write_bytes(b"good")
+    bad.write_bytes(b"tampered")
+    catalog = {"cases": [{"id": "a", "artifacts": {
+        "scene/a/x.bddl": hashlib.sha256(b"good").hexdigest(),
+        "scene/a/y.npz": hashlib.sha256(b"original").hexdigest(),
+        "scene/a/z.pruned_init": "0" * 64}}]}
+    diffs, checked, missing = lock.check_built(catalog)
+    assert (checked, missing) == (2, 1)
+    assert len(diffs) == 1 and "case a: scene/a/y.npz" in diffs[0]
