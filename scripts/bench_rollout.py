@@ -34,13 +34,37 @@ def bare_loop(task, state, steps: int, resolution: int) -> float:
         env.close()
 
 
-def runner_loop_timed(case, steps: int, resolution: int) -> float:
-    """Per-step time of the runner's loop: run_episode with a policy that stamps its first call."""
+class _TimedEnv:
+    """Delegates to LIBERO's env and adds up the time spent in its step()."""
+
+    def __init__(self, env, acc: dict):
+        self._env, self._acc = env, acc
+
+    def step(self, action):
+        t = time.perf_counter()
+        try:
+            return self._env.step(action)
+        finally:
+            self._acc["env_step"] = self._acc.get("env_step", 0.0) + time.perf_counter() - t
+
+    def __getattr__(self, name):
+        return getattr(self._env, name)
+
+
+def runner_loop_timed(case, steps: int, resolution: int) -> tuple[float, float]:
+    """Per-step time of the runner's loop (run_episode, from the policy's first call) and, within
+    it, per-step time spent inside LIBERO's env.step; the difference is the runner's own cost."""
     from vpro_assets.rollout import episode as ep
     from vpro_assets.rollout.case_env import release_cached_envs
     from vpro_assets.rollout.reference import NoopPolicy
 
     stamps = {}
+    original = ep.env_for_case
+
+    def timed_env_for_case(*args, **kwargs):
+        cenv = original(*args, **kwargs)
+        cenv.env = _TimedEnv(cenv.env, stamps)
+        return cenv
 
     class Stamp(NoopPolicy):
         def act(self, obs):
@@ -48,13 +72,15 @@ def runner_loop_timed(case, steps: int, resolution: int) -> float:
             return super().act(obs)
 
     settings = ep.EpisodeSettings(resolution=resolution, wait_steps=0, max_steps_override=steps)
+    ep.env_for_case = timed_env_for_case
     try:
         ep.run_episode(case, 0, Stamp(), settings)
         end = time.perf_counter()
     finally:
+        ep.env_for_case = original
         release_cached_envs()
-    # run_episode's tail after the loop (timeline, state digest, env close to cache) is tiny.
-    return (end - stamps["first_act"]) / steps
+    # run_episode's tail after the loop (timeline, state digest, env back to the cache) is included.
+    return (end - stamps["first_act"]) / steps, stamps["env_step"] / steps
 
 
 def episodes_per_hour(cases, trials: int, workers: int, resolution: int) -> dict:
@@ -89,15 +115,21 @@ def main() -> None:
     case = find_case(catalog, "libero_spatial-00/normal")
     task = get_task(case["task"])
     state = libero_init_states(task)[0]
-    bare, runner = [], []
+    load_start = os.getloadavg()
+    bare, runner, inside, own = [], [], [], []
     for _ in range(args.rounds):
         bare.append(bare_loop(task, state, args.steps, args.resolution))
-        runner.append(runner_loop_timed(case, args.steps, args.resolution))
-    out = {"load_average_start": os.getloadavg(), "cpus": os.cpu_count(), "resolution": args.resolution,
+        total, env_step = runner_loop_timed(case, args.steps, args.resolution)
+        runner.append(total)
+        inside.append(env_step)
+        own.append(total - env_step)
+    ms = lambda xs: round(1000 * statistics.median(xs), 2)  # noqa: E731
+    out = {"load_average_start": load_start, "cpus": os.cpu_count(), "resolution": args.resolution,
            "overhead": {"steps": args.steps, "rounds": args.rounds, "bare_step_s": bare, "runner_step_s": runner,
-                        "bare_median_ms": 1000 * statistics.median(bare),
-                        "runner_median_ms": 1000 * statistics.median(runner),
-                        "overhead_ms": 1000 * (statistics.median(runner) - statistics.median(bare))}}
+                        "runner_env_step_s": inside, "runner_own_s": own,
+                        "bare_median_ms": ms(bare), "runner_median_ms": ms(runner),
+                        "runner_env_step_median_ms": ms(inside), "runner_own_median_ms": ms(own),
+                        "difference_median_ms": ms(runner) - ms(bare)}}
     cases = [find_case(catalog, f"libero_spatial-0{i}/normal") for i in range(2)]
     trials = max(1, args.episodes // len(cases))
     out["throughput"] = [episodes_per_hour(cases, trials, w, args.resolution) for w in (1, 2)]
