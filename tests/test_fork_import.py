@@ -18,7 +18,13 @@ from vpro_assets.selection import select_cases
 pytestmark = pytest.mark.fork
 FORK_VENV = paths.REPO_ROOT / "out" / "fork-venv"
 CHECK = Path(__file__).with_name("fork_check.py")
-CASES = ["libero_goal-03/camera_staleness/wrist-delay2-v1", "libero_10-09/view_unavailability/wrist-constant-v1"]
+# One case of every scene-variation category plus observation cases.
+SCENE_CASES = ["libero_spatial-00/task_relevant_distractors/same_color-v1",
+               "libero_goal-03/task_precondition_variation/receptacle_openness-v1",
+               "libero_goal-03/visual_state_ambiguity/receptacle_openness-v1",
+               "libero_spatial-00/target_geometry_variation/taper-s1-v1"]
+CASES = SCENE_CASES + ["libero_goal-03/camera_staleness/wrist-delay2-v1",
+                       "libero_10-09/view_unavailability/wrist-constant-v1"]
 
 
 @pytest.fixture(scope="module")
@@ -50,20 +56,32 @@ def _run(fork_python, *args):
 
 @pytest.fixture(scope="module")
 def pack(tmp_path_factory):
+    from vpro_assets.scene.build import build
+
     catalog = load_catalog(paths.catalog_path())
-    out = tmp_path_factory.mktemp("packs") / "pack.tar.gz"
-    return write_pack(select_cases(catalog, CASES), out, catalog, paths.catalog_path())
+    mp = pytest.MonkeyPatch()
+    mp.setenv("VPRO_OUT", str(tmp_path_factory.mktemp("vpro-out")))
+    try:
+        build(select_cases(catalog, SCENE_CASES), jobs=1, progress=False)
+        out = tmp_path_factory.mktemp("packs") / "pack.tar.gz"
+        yield write_pack(select_cases(catalog, CASES), out, catalog, paths.catalog_path())
+    finally:
+        mp.undo()
 
 
 def test_fork_runs_every_pack_scene(fork_python, pack):
     report = _run(fork_python, pack)
     assert report["idempotent"]
     tasks = {t["task"]: t for rows in report["suites"].values() for t in rows}
-    assert set(report["suites"]) == {"vpro_camera_staleness", "vpro_view_unavailability"}
-    assert set(tasks) == {"libero_goal-03__wrist-delay2-v1", "libero_10-09__wrist-constant-v1"}
+    assert set(report["suites"]) == {"vpro_camera_staleness", "vpro_view_unavailability",
+                                     "vpro_task_relevant_distractors", "vpro_task_precondition_variation",
+                                     "vpro_visual_state_ambiguity", "vpro_target_geometry_variation"}
+    assert set(tasks) == {f"{c.split('/')[0]}__{c.rsplit('/', 1)[1]}" for c in CASES}
     assert tasks["libero_10-09__wrist-constant-v1"]["language"] == "put the yellow and white mug in the microwave and close it"
-    for row in tasks.values():
-        assert row["init_states"] >= 10 and row["stepped"] == 10 and row["image"] == [64, 64, 3]
+    for name, row in tasks.items():
+        scene = any(name == f"{c.split('/')[0]}__{c.rsplit('/', 1)[1]}" for c in SCENE_CASES)
+        assert row["init_states"] == (10 if scene else 50), name  # scene cases carry their frozen states
+        assert row["stepped"] == 10 and row["image"] == [64, 64, 3]
 
 
 def test_clashing_names_are_refused_and_registries_unchanged(fork_python, pack, tmp_path):

@@ -99,12 +99,13 @@ def test_truncated_archive_and_newer_schema_are_clear_errors(catalog, tmp_path):
     assert proc.returncode == 2 and "Traceback" not in proc.stderr and "truncated" in proc.stderr
 
 
-def test_unbuilt_scene_case_is_refused_and_nothing_is_written(catalog, tmp_path):
+def test_unbuilt_scene_case_is_refused_and_nothing_is_written(catalog, tmp_path, monkeypatch):
+    monkeypatch.setenv("VPRO_OUT", str(tmp_path / "empty-out"))
     scene = next(c for c in catalog["cases"] if c["level"] == "scene")
     out = tmp_path / "never"
     with pytest.raises(PackError, match=scene["id"]):
         write_pack([scene], out, catalog, paths.catalog_path())
-    assert not out.exists() and not list(tmp_path.iterdir())
+    assert not out.exists() and [p.name for p in tmp_path.iterdir()] == []
 
 
 def test_import_copies_into_a_fork_checkout(catalog, tmp_path):

@@ -92,16 +92,28 @@ def check_files(pack: Path, manifest: dict) -> None:
         raise PackRegistrationError(f"{pack}: does not match its manifest: " + "; ".join(bad[:10]))
 
 
-def _object_class(name: str, xml: Path, spec: dict, pack_id: str):
+def _placement(spec: dict, objects: dict) -> dict:
+    """Placement attributes of a generated object: those of the LIBERO object it varies (its
+    `template`), so it is placed and oriented like the original."""
+    placement = {"rotation": (0.0, 0.0), "rotation_axis": "z", "object_properties": {"vis_site_names": {}}}
+    template = spec.get("template")
+    if template:
+        probe = objects[template]()
+        for key in placement:
+            if hasattr(probe, key):
+                placement[key] = getattr(probe, key)
+    return placement
+
+
+def _object_class(name: str, xml: Path, spec: dict, pack_id: str, placement: dict):
     import copy
 
     from robosuite.models.objects import MujocoXMLObject
 
-    placement = {"rotation": tuple(spec.get("rotation", (0.0, 0.0))), "rotation_axis": spec.get("rotation_axis", "z"),
-                 "object_properties": spec.get("object_properties", {"vis_site_names": {}})}
-
-    def __init__(self, name=name, joints=None, **_ignored):
-        joints = joints if joints is not None else [dict(type="free", damping="0.0005")]
+    def __init__(self, name=name, joints="default", **_ignored):
+        # LIBERO builds fixtures with joints=None (no joint) and objects with the default free joint.
+        if isinstance(joints, str) and joints == "default":
+            joints = [dict(type="free", damping="0.0005")]
         MujocoXMLObject.__init__(self, str(xml), name=name, joints=joints, obj_type="all",
                                  duplicate_collision_geoms=False)
         self.category_name = type(self).registered_name
@@ -153,6 +165,8 @@ def register(pack: str | os.PathLike, verify: bool = True) -> dict[str, type]:
     suites = manifest.get("suites", {})
     clashes = []
     for name, spec in objects.items():
+        if spec.get("template") and spec["template"] not in OBJECTS_DICT:
+            clashes.append(f"object {name!r} varies {spec['template']!r}, which this LIBERO does not have")
         existing = OBJECTS_DICT.get(name)
         if existing is not None and getattr(existing, "_vpro_pack_object", (None, None))[1] != spec["sha256"]:
             clashes.append(f"object {name!r} is already registered ({getattr(existing, 'xml_path', existing.__name__)})")
@@ -167,7 +181,8 @@ def register(pack: str | os.PathLike, verify: bool = True) -> dict[str, type]:
     try:
         for name, spec in objects.items():
             if name not in OBJECTS_DICT:
-                OBJECTS_DICT[name] = _object_class(name, pack / spec["xml"], spec, pack_id)
+                OBJECTS_DICT[name] = _object_class(name, pack / spec["xml"], spec, pack_id,
+                                                   _placement(spec, OBJECTS_DICT))
                 added_objects.append(name)
         classes = {}
         for suite, tasks in suites.items():

@@ -67,10 +67,44 @@ def pack_names(case: dict) -> tuple[str, str]:
 def _case_sources(case: dict) -> dict:
     """Source files of a case: its BDDL, its initial states and any generated objects."""
     if case["level"] == SCENE:
-        raise PackError(f"case {case['id']} changes the scene and its artifacts are not built; "
-                        f"run `vpro build --select {case['id']}` first")
+        return _scene_sources(case)
     return {"bddl": libero_bridge.bddl_path(case["suite"], case["task_name"]),
             "init_states": libero_bridge.init_state_path(case["suite"], case["task_name"]), "objects": []}
+
+
+def _scene_sources(case: dict) -> dict:
+    """Files of a built scene case, read from its build record (nothing is registered or built)."""
+    from ..object_registry import content_sha256
+    from ..scene.build import META, case_dir, objects_root
+
+    meta_path = case_dir(case["id"]) / META
+    if not meta_path.is_file():
+        raise PackError(f"case {case['id']} changes the scene and its artifacts are not built; "
+                        f"run `vpro build --select {case['id']}` first")
+    meta = json.loads(meta_path.read_text())
+    files = meta["files"]
+    objects = []
+    for name, info in sorted(meta.get("generated_objects", {}).items()):
+        xml = objects_root() / name / f"{name}.xml"
+        objects.append({"name": name, "dir": objects_root() / name, "xml": f"{name}.xml",
+                        "template": info.get("template"), "sha256": content_sha256(xml)})
+    return {"bddl": case_dir(case["id"]) / next(f for f in files if f.endswith(".bddl")),
+            "init_states": case_dir(case["id"]) / next(f for f in files if f.endswith(".pruned_init")),
+            "objects": objects}
+
+
+def _copy_object(obj: dict, assets: Path) -> None:
+    """The object's folder, plus files its MJCF references outside it (shared textures), at the
+    same relative places under assets/ as under out/objects/."""
+    import xml.etree.ElementTree as ET
+
+    src_dir = Path(obj["dir"])
+    shutil.copytree(src_dir, assets / obj["name"], dirs_exist_ok=True)
+    for element in ET.parse(src_dir / obj["xml"]).getroot().iter():
+        ref = element.get("file")
+        if ref and not (src_dir / ref).resolve().is_relative_to(src_dir.resolve()):
+            rel = (src_dir / ref).resolve().relative_to(src_dir.parent.resolve())
+            _copy(src_dir.parent / rel, assets / rel)
 
 
 def _copy(src: Path, dest: Path) -> None:
@@ -98,9 +132,8 @@ def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> Non
         _copy(Path(sources["bddl"]), root / "bddl_files" / suite / f"{name}.bddl")
         _copy(Path(sources["init_states"]), root / "init_files" / suite / f"{name}.pruned_init")
         for obj in sources["objects"]:
-            dest = root / "assets" / obj["name"]
             if obj["name"] not in objects:
-                shutil.copytree(obj["dir"], dest, dirs_exist_ok=True)
+                _copy_object(obj, root / "assets")
                 objects[obj["name"]] = {k: v for k, v in obj.items() if k != "dir"} | {
                     "xml": f"assets/{obj['name']}/{obj['xml']}"}
         language = libero_language(case["task_name"])
