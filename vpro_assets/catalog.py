@@ -57,6 +57,7 @@ def _case(task: TaskRecord, setting: tx.Setting, scene_lock: dict | None = None)
         "task": task.key,
         "task_name": task.name,
         "language": task.language,
+        "instruction": task.instruction,
         "dimension": cat.dimension,
         "category": cat.id,
         "indicator": cat.indicator,
@@ -106,6 +107,7 @@ def build_catalog(tasks: tuple[TaskRecord, ...] | None = None) -> dict[str, Any]
     }
     normal = [
         {"id": normal_id(t), "suite": t.suite, "task": t.key, "task_name": t.name, "language": t.language,
+         "instruction": t.instruction,
          "trial_seeds": trial_seeds(normal_id(t)), "init_states": _libero_init_ref(t)}
         for t in tasks
     ]

@@ -53,6 +53,14 @@ class TaskRecord:
     def init_relpath(self) -> str:
         return f"{self.suite}/{self.name}.pruned_init"
 
+    @property
+    def instruction(self) -> str:
+        """The prompt models are evaluated with: LIBERO's benchmark derives it from the task's file
+        name (openpi, OpenVLA-OFT and LeRobot use it), and it can differ from the BDDL's
+        `(:language ...)`, e.g. "open the top drawer and put the bowl inside" for a BDDL that says
+        "Open the top layer of the drawer and put the bowl inside"."""
+        return libero_instruction(self.name)
+
     def category_of(self, instance: str) -> str:
         return dict(self.objects + self.fixtures)[instance]
 
@@ -79,6 +87,7 @@ class TaskRecord:
             "index": self.index,
             "name": self.name,
             "language": self.language,
+            "instruction": self.instruction,
             "problem_class": self.problem_class,
             "objects": [list(o) for o in self.objects],
             "fixtures": [list(f) for f in self.fixtures],
@@ -94,6 +103,15 @@ class TaskRecord:
             "bddl": self.bddl_relpath,
             "init_states": self.init_relpath,
         }
+
+
+def libero_instruction(task_name: str) -> str:
+    """LIBERO's `grab_language_from_filename`, restated because importing
+    `libero.libero.benchmark` imports torch."""
+    if task_name[0].isupper():  # libero_10/90 names carry a SCENE prefix
+        cut = task_name.find("SCENE") + (8 if "SCENE10" in task_name else 7)
+        return " ".join(task_name[cut:].split("_"))
+    return " ".join(task_name.split("_"))
 
 
 def _flatten(named: dict[str, list[str]]) -> tuple[tuple[str, str], ...]:

@@ -26,6 +26,7 @@ from pathlib import Path
 from .. import __version__, libero_bridge, paths
 from ..catalog import library_versions
 from ..taxonomy import SCENE
+from ..tasks import libero_instruction
 from . import archive, manifest as mf
 from .manifest import PackError
 
@@ -47,16 +48,6 @@ Suites: {suites}. Observation-level cases need `vpro_assets.wrap(env, case)` aro
 (see docs/packs.md of libero-vpro). `manifest.json` lists every file with its sha256;
 `vpro pack verify <this folder>` checks them.
 """
-
-
-def libero_language(task_name: str) -> str:
-    """The instruction LIBERO's benchmark derives from a task's file name (what openpi and
-    OpenVLA-OFT prompt with); LIBERO's `grab_language_from_filename`, restated because importing
-    `libero.libero.benchmark` imports torch."""
-    if task_name[0].isupper():  # libero_10/90 names carry a SCENE prefix
-        cut = task_name.find("SCENE") + (8 if "SCENE10" in task_name else 7)
-        return " ".join(task_name[cut:].split("_"))
-    return " ".join(task_name.split("_"))
 
 
 def pack_names(case: dict) -> tuple[str, str]:
@@ -136,7 +127,7 @@ def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> Non
                 _copy_object(obj, root / "assets")
                 objects[obj["name"]] = {k: v for k, v in obj.items() if k != "dir"} | {
                     "xml": f"assets/{obj['name']}/{obj['xml']}"}
-        language = libero_language(case["task_name"])
+        language = libero_instruction(case["task_name"])
         spec = dict(case, pack={"suite": suite, "name": name, "instruction": language,
                                 "bddl": f"bddl_files/{suite}/{name}.bddl",
                                 "init_states": f"init_files/{suite}/{name}.pruned_init"})
