@@ -49,6 +49,13 @@ def _distractors(cenv: CaseEnv) -> list[str]:
     return [names] if isinstance(names, str) else list(names)
 
 
+def prompt_of(case: dict) -> str:
+    """The instruction models are prompted with: LIBERO's benchmark language (from the task file name,
+    what openpi's and OpenVLA-OFT's scripts send), falling back to the BDDL's wording."""
+    task = get_task(case["task"])
+    return case.get("instruction") or getattr(task, "instruction", None) or task.language
+
+
 def _pid(policy) -> str:
     return str(getattr(policy, "policy_id", type(policy).__name__))
 
@@ -62,7 +69,7 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
         raise CaseUnavailableError(f"case {case['id']}: policy {_pid(policy)} does not predict frames; "
                                    "Prediction-Reality Divergence applies to frame-predicting policies only")
     # The policy first: a server that is down is found before the env is built.
-    episode = EpisodeInfo(instruction=get_task(case["task"]).language, case_id=case["id"], trial=trial, seed=seed,
+    episode = EpisodeInfo(instruction=prompt_of(case), case_id=case["id"], trial=trial, seed=seed,
                           suite=case["suite"], task=case["task"])
     try:
         policy.reset(episode)

@@ -23,7 +23,7 @@ from .. import paths
 from ..catalog import find_case, load_catalog
 from ..env import CAMERAS, NOOP_ACTION
 from .case_env import check_available, env_for_case, release_cached_envs
-from .episode import MAX_STEPS, WAIT_STEPS
+from .episode import MAX_STEPS, WAIT_STEPS, prompt_of
 from .openpi_adapter import quat2axisangle
 
 ENV_ID = "vpro/Case-v0"
@@ -58,7 +58,7 @@ class VProCaseEnv(gym.Env):
         obs["state"] = np.concatenate([self._raw["robot0_eef_pos"], quat2axisangle(self._raw["robot0_eef_quat"]),
                                        self._raw["robot0_gripper_qpos"]]).astype(np.float64)
         return obs, {"available_views": [c for c in CAMERAS if images.get(c) is not None], "step": self._t,
-                     "language": self._cenv.task.language}
+                     "language": prompt_of(self.case)}
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict[str, Any]] = None):
         super().reset(seed=seed)
