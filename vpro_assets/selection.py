@@ -35,14 +35,16 @@ def select_cases(catalog: dict, filters: Sequence[str] | None) -> list[dict]:
         if f not in known:
             raise UnknownIdError("case, setting, category, dimension, suite or task", f, sorted(known))
     wanted = set(filters)
-    if NORMAL in wanted:
-        scope = wanted - {NORMAL}
-        picked_normal = [c for c in catalog.get("normal", []) if not scope or scope & _keys(c)]
-        # Filters that only narrow the Normal baselines (a suite or task) do not add perturbed cases.
-        narrowing = {c["suite"] for c in catalog.get("normal", [])} | {c["task"] for c in catalog.get("normal", [])}
-        rest = scope - narrowing
-        return picked_normal + [c for c in catalog["cases"] if rest & _keys(c)]
-    return [c for c in catalog["cases"] if wanted & _keys(c)]
+    normal = catalog.get("normal", [])
+    picked_normal = [c for c in normal if c["id"] in wanted]  # a Normal baseline named by its id
+    rest = wanted - {c["id"] for c in picked_normal}
+    if NORMAL in rest:
+        rest.discard(NORMAL)
+        # Suites and tasks given with `normal` narrow the baselines and do not add perturbed cases.
+        narrowing = rest & ({c["suite"] for c in normal} | {c["task"] for c in normal})
+        picked_normal += [c for c in normal if (not narrowing or narrowing & _keys(c)) and c not in picked_normal]
+        rest -= narrowing
+    return picked_normal + [c for c in catalog["cases"] if rest & _keys(c)]
 
 
 def describe(cases: Iterable[dict]) -> str:
