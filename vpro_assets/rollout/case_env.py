@@ -160,6 +160,11 @@ class CaseEnv:
 
     def reset(self) -> dict:
         try:
+            # LIBERO re-samples fixture placements (cabinets, stoves, racks) from numpy's global
+            # stream at every hard reset; its own `seed()` is the only handle on that stream (openpi's
+            # LIBERO example calls it too). Seeding it with the trial's seed makes the scene, and so
+            # every frame, a function of (case, trial) whatever ran before in this process.
+            self.env.seed(int(self.case["trial_seeds"][self.trial]))
             self.env.reset()
             obs = self.env.set_init_state(self.init_state)
         except Exception as exc:
