@@ -15,7 +15,7 @@ from ..tasks import get_task
 def add_parser(sub) -> None:
     p = sub.add_parser("env", help="build an env headless and render both views to a PNG",
                        description="Build the LIBERO env of a base task or case headless (MUJOCO_GL chosen "
-                       "automatically), load an initial state, step once with the no-op action and write both "
+                       "automatically; a scene case from its built BDDL and frozen states), load an initial state, step once with the no-op action and write both "
                        "views side by side (upright; third-person left, wrist right).")
     p.add_argument("target", metavar="CASE_OR_TASK", help="task key (libero_goal-03), LIBERO task name, or case id")
     p.add_argument("--snapshot", type=Path, required=True, metavar="FILE.png", help="PNG to write")
@@ -37,13 +37,18 @@ def resolve(target: str):
 
 def run_env(args) -> int:
     task, case = resolve(args.target)
+    bddl = None
     if case is not None and case.get("level") == "scene":
-        raise VProError(f"case {case['id']} changes the scene; its generated BDDL is needed (`vpro build`), "
-                        "not available in this version")
-    states = libero_init_states(task)
+        from ..init_states import read_init_states
+        from ..scene.build import built_case  # raises "not built; run vpro build" naming the case
+
+        built = built_case(case["id"])
+        bddl, states = str(built["bddl"]), read_init_states(built["init_states"])
+    else:
+        states = libero_init_states(task)
     if not 0 <= args.init_state < len(states):
-        raise VProError(f"--init-state {args.init_state} out of range: {task.key} has {len(states)} initial states")
-    with task_env(task, args.resolution) as env:
+        raise VProError(f"--init-state {args.init_state} out of range: {args.target} has {len(states)} initial states")
+    with task_env(task, args.resolution, bddl_file=bddl) as env:
         env.reset()
         env.set_init_state(states[args.init_state])
         obs, *_ = env.step(NOOP_ACTION)
