@@ -25,12 +25,26 @@ $(STAMP): pyproject.toml Makefile
 	$(VENV)/bin/python scripts/robosuite_private_macros.py
 	@touch $(STAMP)
 
-# The main job: rebuild the catalog in memory and check it byte for byte against the
-# committed catalog.json, regenerate docs/taxonomy.md, and render one base task headless.
+# The main job, end to end on a small scale (about 15 minutes on 2 cores): the catalog checked
+# against a rebuild; the scene cases whose hashes are committed built, checked against those hashes
+# and validated; what a perturbation does and a task's scene variants as pictures; the scripted
+# policy evaluated on a Normal baseline, observation cases and a scene case; the paper's tables.
+RUN := out/run
+SCENE_SAMPLE := $(shell $(PYTHON) -c "import json; print(' '.join('--select ' + c for c in json.load(open('scene_artifacts.lock.json'))))")
+EVAL_SAMPLE := --select libero_spatial-00/normal --select libero_spatial-00/camera_staleness/wrist-delay2-v1 \
+	--select libero_spatial-00/view_unavailability/third_person-constant-v1 \
+	--select libero_spatial-00/target_object_masking/ratio50-always-v1 \
+	--select libero_spatial-00/task_relevant_distractors/same_color-v1
 run: setup
 	$(VPRO) catalog verify
-	$(VPRO) taxonomy --doc docs/taxonomy.md
-	$(VPRO) env libero_spatial-00 --snapshot out/snapshots/libero_spatial-00.png
+	$(VPRO) build --no-record -j 2 $(SCENE_SAMPLE)
+	$(VPRO) catalog verify --artifacts
+	$(VPRO) validate $(SCENE_SAMPLE)
+	$(VPRO) preview libero_spatial-00/camera_staleness/wrist-delay2-v1 --out $(RUN)/preview-staleness.png
+	$(VPRO) preview libero_goal-03 --out $(RUN)/gallery-libero_goal-03.png
+	$(VPRO) eval --policy oracle $(EVAL_SAMPLE) --trials 2 --workers 2 --results $(RUN)/results.sqlite
+	$(VPRO) report $(RUN)/results.sqlite --out $(RUN)/report
+	@echo "main job done: pictures, results and report in $(RUN)/"
 
 test: setup
 	$(VENV)/bin/python -m pytest
