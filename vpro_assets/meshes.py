@@ -9,7 +9,6 @@ depends on what is installed).
 """
 from __future__ import annotations
 
-import hashlib
 import io
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -17,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .hashing import sha256_bytes, sha256_file  # noqa: F401  (used by the geometry modules through meshes)
 from .errors import VProError
 
 POSITION_DECIMALS = 6  # metres: 1 micrometre
@@ -237,18 +237,6 @@ def soup_to_indexed(corners: np.ndarray, uv: np.ndarray | None):
 def normals_to_indexed(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Corner normals (F, 3, 3) -> (unique normals, normal_faces) at written precision."""
     return _unique_rows(normals, NORMAL_DECIMALS)
-
-
-def sha256_bytes(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
-
-
-def sha256_file(path: Path | str) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def content_name(stem: str, data: bytes, suffix: str, digits: int = 16) -> str:

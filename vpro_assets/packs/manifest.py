@@ -6,11 +6,11 @@ file.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..hashing import sha256_file  # noqa: F401  (part of this module's interface)
 from ..errors import VProError
 
 MANIFEST = "manifest.json"
@@ -20,14 +20,6 @@ PACK_SCHEMA_VERSION = 1
 
 class PackError(VProError):
     """A pack that is unreadable, of a newer schema, or does not match its manifest."""
-
-
-def sha256_file(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def file_entries(root: Path) -> dict[str, dict]:

@@ -27,6 +27,7 @@ from typing import Any, Mapping, Optional
 
 import numpy as np
 
+from ..hashing import sha256_file
 from .. import libero_bridge
 from ..env import CAMERAS, libero_init_states, make_env
 from ..errors import VProError
@@ -43,15 +44,6 @@ class CaseUnavailableError(VProError):
 
 def is_normal(case: Mapping) -> bool:
     return not case.get("setting")
-
-
-@lru_cache(maxsize=64)
-def sha256_file(path: str) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 @lru_cache(maxsize=8)

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..hashing import sha256_bytes, sha256_file  # noqa: F401  (the scene modules import them from here)
 from .. import paths
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..errors import VProError
@@ -51,14 +52,6 @@ def objects_root() -> Path:
 
 def case_dir(case_id: str) -> Path:
     return scene_root() / case_id
-
-
-def sha256_bytes(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
-
-
-def sha256_file(path: Path) -> str:
-    return sha256_bytes(Path(path).read_bytes())
 
 
 def canonical(obj) -> str:
