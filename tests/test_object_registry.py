@@ -152,3 +152,19 @@ def test_unknown_template_names_the_template(tmp_path):
 
     with pytest.raises(UnknownIdError, match="akita_blak_bowl.*akita_black_bowl"):
         register_mjcf_object("vpro_test_cube_d", write_object(tmp_path), template="akita_blak_bowl")
+
+
+def test_the_identical_object_from_another_folder_is_accepted(tmp_path):
+    import shutil
+
+    first = write_object(tmp_path / "build1")
+    second = write_object(tmp_path / "build2")
+    cls = register_mjcf_object("vpro_test_cube_e", first)
+    try:
+        assert register_mjcf_object("vpro_test_cube_e", second) is cls  # same bytes elsewhere
+        shutil.rmtree(tmp_path / "build1")
+        moved = register_mjcf_object("vpro_test_cube_e", second)  # the first copy is gone
+        assert moved.xml_path == str(second.resolve())
+        moved(name="cube_1")  # and it loads
+    finally:
+        unregister_object("vpro_test_cube_e")

@@ -7,7 +7,8 @@ already means a different object is refused, and registering the identical objec
 the class already registered (so a worker may register everything it needs at start-up).
 
 "Identical" means: the same XML bytes, the same bytes of every file the XML references (meshes,
-textures) and the same placement attributes. Any MJCF object file in LIBERO's layout works
+textures) and the same placement attributes, wherever the file lies (a rebuild in another folder
+registers again without complaint; the first copy keeps serving while it exists). Any MJCF object file in LIBERO's layout works
 (`<worldbody><body><body name="object">...</body><site name="bottom_site"/>...</body></worldbody>`):
 generated deformed targets, recoloured distractors, visual-only copies.
 """
@@ -138,9 +139,14 @@ def register_mjcf_object(
     objects = _objects_dict()
     existing = objects.get(name)
     if existing is not None:
-        if getattr(existing, "_vpro_identity", None) == identity:
-            return existing
         other = getattr(existing, "_vpro_identity", None)
+        if other is not None and (other.content_sha256, other.placement) == (sha, identity.placement):
+            # The identical object (same bytes, same placement), perhaps from another folder.
+            if other.xml_path == identity.xml_path or _still_there(other):
+                return existing
+            cls = _make_class(name, xml_path, placement, identity)  # the first copy is gone: use this one
+            objects[name] = cls
+            return cls
         where = f"{other.xml_path} (content {other.content_sha256[:12]})" if other else f"LIBERO's {existing.__name__}"
         raise ObjectRegistryError(
             f"object name {name!r} is already registered for a different object: {where}; "
@@ -150,6 +156,13 @@ def register_mjcf_object(
     objects[name] = cls
     log.debug("registered LIBERO object %s from %s", name, xml_path)
     return cls
+
+
+def _still_there(identity: ObjectIdentity) -> bool:
+    try:
+        return content_sha256(identity.xml_path) == identity.content_sha256
+    except ObjectRegistryError:
+        return False
 
 
 def _make_class(name: str, xml_path: Path, placement: dict[str, Any], identity: ObjectIdentity) -> type:
