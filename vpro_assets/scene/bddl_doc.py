@@ -60,11 +60,10 @@ class BaseBDDL:
     parsed: dict = field(repr=False, default_factory=dict)
 
 
-def _top_groups(text: str) -> list[tuple[int, int]]:
-    """Spans of the parenthesised groups directly inside `(define ...)`."""
-    clean = re.sub(r";.*$", lambda m: " " * len(m.group(0)), text, flags=re.MULTILINE)
+def _group_spans(text: str) -> list[tuple[int, int]]:
+    """Spans of the parenthesised groups one level inside the outermost group of `text`."""
     depth, start, spans = 0, None, []
-    for i, ch in enumerate(clean):
+    for i, ch in enumerate(text):
         if ch == "(":
             depth += 1
             if depth == 2:
@@ -76,19 +75,14 @@ def _top_groups(text: str) -> list[tuple[int, int]]:
     return spans
 
 
+def _top_groups(text: str) -> list[tuple[int, int]]:
+    """Spans of the parenthesised groups directly inside `(define ...)`, comments ignored."""
+    return _group_spans(re.sub(r";.*$", lambda m: " " * len(m.group(0)), text, flags=re.MULTILINE))
+
+
 def _inner_groups(block: str) -> list[str]:
     """Raw text of the groups one level inside `block` (which starts with '(')."""
-    depth, start, out = 0, None, []
-    for i, ch in enumerate(block):
-        if ch == "(":
-            depth += 1
-            if depth == 2:
-                start = i
-        elif ch == ")":
-            if depth == 2 and start is not None:
-                out.append(block[start:i + 1])
-            depth -= 1
-    return out
+    return [block[a:b] for a, b in _group_spans(block)]
 
 
 def _typed_list(block: str) -> list[tuple[str, str]]:
