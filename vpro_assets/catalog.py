@@ -171,12 +171,13 @@ def load_catalog(path: Path) -> dict:
 def _diff(a: Any, b: Any, where: str) -> Iterator[str]:
     if isinstance(a, dict) and isinstance(b, dict):
         for key in sorted(set(a) | set(b)):
+            path = f"{where}.{key}" if where else key
             if key not in b:
-                yield f"{where}.{key}: not in the rebuild"
+                yield f"{path}: not in the rebuild"
             elif key not in a:
-                yield f"{where}.{key}: missing (rebuild has {json.dumps(b[key])[:80]})"
+                yield f"{path}: missing (rebuild has {json.dumps(b[key])[:80]})"
             else:
-                yield from _diff(a[key], b[key], f"{where}.{key}")
+                yield from _diff(a[key], b[key], path)
     elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
         for i, (x, y) in enumerate(zip(a, b)):
             yield from _diff(x, y, f"{where}[{i}]")
@@ -196,12 +197,12 @@ def differences(committed: dict, rebuilt: dict) -> list[str]:
             out += [f"{section}: case {i} is missing" for i in b_ids if i not in a_ids]
             for cid in b_ids:
                 if cid in a_ids:
-                    out += [f"case {cid}: field {d}" for d in _diff(a_ids[cid], b_ids[cid], "").__iter__()]
+                    out += [f"case {cid}: field {d}" for d in _diff(a_ids[cid], b_ids[cid], "")]
             if not out and [c.get("id") for c in a] != [c["id"] for c in b]:
                 out.append(f"{section}: cases are in a different order")
         else:
             out += list(_diff(a, b, section))
-    return [d.replace("field .", "field ") for d in out]
+    return out
 
 
 def verify_catalog(path: Path) -> tuple[dict, list[str]]:
