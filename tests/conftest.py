@@ -22,3 +22,23 @@ def built_catalog():
     from vpro_assets.catalog import build_catalog
 
     return build_catalog()
+
+
+# A scene case both the scene-build tests and the rollout end-to-end test use: a recoloured
+# distractor on libero_spatial-00 (registers a generated object; no long mesh work).
+BUILT_SCENE_CASE = "libero_spatial-00/task_relevant_distractors/same_color-v1"
+
+
+@pytest.fixture(scope="session")
+def scene_out(tmp_path_factory):
+    """An out/ folder (VPRO_OUT) shared by the session, with BUILT_SCENE_CASE built in it."""
+    from vpro_assets import paths
+    from vpro_assets.catalog import find_case, load_catalog
+    from vpro_assets.scene import build
+
+    d = tmp_path_factory.mktemp("vpro-out")
+    case = find_case(load_catalog(paths.catalog_path()), BUILT_SCENE_CASE)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("VPRO_OUT", str(d))
+        assert build.build_case(case).status == "built"
+    return d

@@ -2,7 +2,10 @@
 with a reference policy on the local process pool, then `vpro report`."""
 from __future__ import annotations
 
+import json
+
 import pytest
+from conftest import BUILT_SCENE_CASE
 
 from vpro_assets import paths, taxonomy as tx
 from vpro_assets.catalog import load_catalog
@@ -13,11 +16,14 @@ TASK = "libero_spatial-00"
 
 
 def small_selection(catalog) -> list[str]:
-    """Normal of one task, then per category its first case on that task (else its first case)."""
+    """Normal of one task, then per category its first case on that task (else its first case);
+    the distractor category takes the scene case the session built (BUILT_SCENE_CASE)."""
     picked = [f"{TASK}/normal"]
     for cat in tx.CATEGORIES:
         cases = [c for c in catalog["cases"] if c["category"] == cat.id]
-        if cases:
+        if BUILT_SCENE_CASE.split("/")[1] == cat.id:
+            picked.append(BUILT_SCENE_CASE)
+        elif cases:
             picked.append(next((c for c in cases if c["task"] == TASK), cases[0])["id"])
     return picked
 
@@ -35,8 +41,9 @@ def _check_video(path, frames: int, width: int) -> None:
         cap.release()
 
 
-def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, capsys):
-    monkeypatch.setenv("VPRO_OUT", str(tmp_path / "out"))  # no built scenes: scene cases must say so
+def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, capsys, scene_out):
+    # One scene case built (it must run like any other); the other scene cases are not: they must say so.
+    monkeypatch.setenv("VPRO_OUT", str(scene_out))
     catalog = load_catalog(paths.catalog_path())
     ids = small_selection(catalog)
     db = tmp_path / "results.sqlite"
@@ -54,7 +61,7 @@ def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, c
     assert by_category["normal"]["success"] == 0  # holding still never solves the task
     for cat in tx.CATEGORIES:
         row = by_category[cat.id]
-        if cat.level == tx.SCENE:
+        if cat.level == tx.SCENE and row["case_id"] != BUILT_SCENE_CASE:
             assert row["status"] == "unavailable" and "not built; run vpro build" in row["error"]
         elif cat.id == "prediction_reality_divergence":
             assert row["status"] == "unavailable" and "does not predict frames" in row["error"]
@@ -66,6 +73,12 @@ def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, c
             assert row["phase_timeline"] is None or "changes" in row["phase_timeline"]
             assert len(row["final_state"]) == 64 and set(row["artifact_hashes"]) >= {"bddl", "init_states"}
             _check_video(row["video"], frames=3, width=4 * 64)
+    # The scene case ran on the files the build wrote (the row carries their hashes).
+    meta = json.loads((scene_out / "scene" / BUILT_SCENE_CASE / "meta.json").read_text())
+    scene_row = rows[BUILT_SCENE_CASE]
+    assert scene_row["artifact_hashes"]["bddl"] == next(h for f, h in meta["files"].items() if f.endswith(".bddl"))
+    assert scene_row["artifact_hashes"]["init_states"] == next(
+        h for f, h in meta["files"].items() if f.endswith(".pruned_init"))
 
     out = tmp_path / "report"
     assert main(["report", str(db), "--out", str(out)]) == 0

@@ -15,8 +15,10 @@ import pytest
 from vpro_assets.catalog import load_catalog
 from vpro_assets import paths
 
+from conftest import BUILT_SCENE_CASE
+
 SAMPLE = (
-    "libero_spatial-00/task_relevant_distractors/same_color-v1",
+    BUILT_SCENE_CASE,
     "libero_goal-03/task_precondition_variation/receptacle_openness-v1",
     "libero_goal-03/visual_state_ambiguity/object_pose-v1",
 )
@@ -32,12 +34,10 @@ def _case(catalog, cid):
 
 
 @pytest.fixture(scope="module")
-def out_dir(tmp_path_factory):
-    d = tmp_path_factory.mktemp("vpro-out")
-    mp = pytest.MonkeyPatch()
-    mp.setenv("VPRO_OUT", str(d))
-    yield d
-    mp.undo()
+def out_dir(scene_out):
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("VPRO_OUT", str(scene_out))
+        yield scene_out
 
 
 @pytest.mark.parametrize("cid", SAMPLE)

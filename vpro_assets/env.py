@@ -1,7 +1,9 @@
 """Headless LIBERO environments for base tasks, with both cameras at a chosen resolution."""
 from __future__ import annotations
 
+import atexit
 import logging
+import weakref
 from contextlib import contextmanager
 from typing import Iterator
 
@@ -26,9 +28,33 @@ def make_env(task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, bddl_file: 
     envs = libero_bridge.libero_envs()
     bddl = bddl_file or str(libero_bridge.bddl_path(task.suite, task.name))
     log.info("building %s (%s) at %dx%d", task.key, bddl, resolution, resolution)
-    return envs.OffScreenRenderEnv(
+    env = envs.OffScreenRenderEnv(
         bddl_file_name=bddl, camera_heights=resolution, camera_widths=resolution, camera_names=list(CAMERAS), **kwargs
     )
+    _track_render_context(env)
+    return env
+
+
+_LIVE_ENVS: "weakref.WeakSet" = weakref.WeakSet()
+
+
+def _track_render_context(env) -> None:
+    # robosuite registers eglTerminate with atexit when it creates its first EGL context (inside
+    # the first env built); contexts still alive at exit are then freed during interpreter
+    # teardown on a terminated display, printing "Exception ignored ... EGLError" tracebacks.
+    # atexit runs handlers last-registered first, so a handler registered after that env frees
+    # the remaining contexts while the display is still valid.
+    if not _LIVE_ENVS:
+        atexit.unregister(_free_render_contexts)
+        atexit.register(_free_render_contexts)
+    _LIVE_ENVS.add(env)
+
+
+def _free_render_contexts() -> None:
+    for env in list(_LIVE_ENVS):
+        ctx = getattr(getattr(getattr(env, "env", None), "sim", None), "_render_context_offscreen", None)
+        if ctx is not None and getattr(ctx, "gl_ctx", None) is not None:
+            ctx.gl_ctx.free()  # idempotent: robosuite's own __del__ then finds nothing to free
 
 
 @contextmanager

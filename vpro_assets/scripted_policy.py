@@ -185,7 +185,7 @@ class ScriptedPolicy:
         self._controller = None
 
     def act(self, obs=None):
-        from .rollout.policy import PolicyOutput  # the rollout layer's protocol type
+        from .perturb.prediction import PolicyOutput
 
         return PolicyOutput(self.next_action()[None])
 

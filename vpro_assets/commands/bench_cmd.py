@@ -18,8 +18,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 from .. import paths, taxonomy as tx
 from ..atomic import write_text_atomic
 from ..catalog import load_catalog
@@ -157,7 +155,7 @@ def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolutio
 
 
 def markdown_table(rows: list[dict], meta: dict) -> str:
-    lines = [f"### Observation perturbations: step time against the clean env (`vpro bench perturb`)", "",
+    lines = ["### Observation perturbations: step time against the clean env (`vpro bench perturb`)", "",
              f"Measured {meta['date']} on {meta['machine']}, {meta['steps']} scripted steps per block at "
              f"{meta['resolution']} px, clean and perturbed blocks interleaved; ratio = median perturbed step / "
              f"median clean step of the neighbouring clean blocks (wall clock: includes the noise of the machine's "

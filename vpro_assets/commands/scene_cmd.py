@@ -1,4 +1,4 @@
-"""`vpro build`, `vpro validate`, `vpro preview`: scene cases as files, checked, and seen."""
+"""`vpro build`, `vpro validate`: scene cases as files, and checked (`vpro preview` shows them)."""
 from __future__ import annotations
 
 import sys
@@ -7,7 +7,6 @@ from pathlib import Path
 
 from .. import paths
 from ..catalog import load_catalog
-from ..errors import VProError
 from ..selection import describe, select_cases
 
 SELECT_HELP = ("case id, setting id, category, dimension, suite or task (repeatable; several are a union; "
@@ -33,17 +32,9 @@ def add_parser(sub) -> None:
                        "generated objects compile; LIBERO builds the env; the scene MJCF compiles with no MuJoCo "
                        "warning; every initial state loads; one second of zero actions leaves every object at rest.")
     v.add_argument("--select", action="append", metavar="FILTER", help=SELECT_HELP)
+    v.add_argument("-j", "--jobs", type=int, default=1, help="worker processes (default 1; a case takes ~10 s)")
     v.add_argument("--catalog", type=Path, default=None, help="catalog to read (default: catalog.json)")
     v.set_defaults(run=run_validate)
-
-    p = sub.add_parser("preview", help="one PNG with every built scene variant of a task (gallery)",
-                       description="Render the agentview image of the first initial state of every built scene "
-                       "case of a task, plus the unchanged task, into one labelled contact sheet.")
-    p.add_argument("task", help="task key, e.g. libero_spatial-00")
-    p.add_argument("--out", type=Path, required=True, metavar="FILE.png", help="PNG to write")
-    p.add_argument("--resolution", type=int, default=256, help="image size per variant (default 256)")
-    p.add_argument("--catalog", type=Path, default=None, help="catalog to read (default: catalog.json)")
-    p.set_defaults(run=run_preview)
 
 
 def _scene_cases(args) -> list[dict]:
@@ -58,7 +49,7 @@ def run_build(args) -> int:
     cases = _scene_cases(args)
     print(f"building {describe(cases)} into {paths.out_dir() / 'scene'} with {args.jobs} job(s)", file=sys.stderr)
     started = time.perf_counter()
-    results = build(cases, jobs=args.jobs, force=args.force, progress=sys.stderr.isatty() or True)
+    results = build(cases, jobs=args.jobs, force=args.force, progress=True)
     failed = [r for r in results if r.status == "failed"]
     built = sum(r.status == "built" for r in results)
     unchanged = sum(r.status == "unchanged" for r in results)
@@ -77,28 +68,16 @@ def run_build(args) -> int:
 
 
 def run_validate(args) -> int:
-    from ..scene.validate import validate_case
+    from ..scene.validate import validate
 
     cases = _scene_cases(args)
     bad = 0
-    for case in cases:
-        v = validate_case(case)
+    for v in validate(cases, args.jobs):
         if v.ok:
-            print(f"OK     {case['id']} ({v.seconds:.1f} s)")
+            print(f"OK     {v.case_id} ({v.seconds:.1f} s)", flush=True)
         else:
             bad += 1
             for p in v.problems:
-                print(f"FAILED {case['id']}: {p}")
+                print(f"FAILED {v.case_id}: {p}", flush=True)
     print(f"{len(cases) - bad} of {len(cases)} case(s) valid", file=sys.stderr)
     return 1 if bad else 0
-
-
-def run_preview(args) -> int:
-    from ..scene.gallery import write_gallery
-
-    catalog = load_catalog(args.catalog or paths.catalog_path())
-    shown = write_gallery(catalog, args.task, args.out, args.resolution)
-    if not shown:
-        raise VProError(f"task {args.task}: no built scene case; run `vpro build --select {args.task}`")
-    print(f"wrote {args.out}: {shown} panel(s)", file=sys.stderr)
-    return 0

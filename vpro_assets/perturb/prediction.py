@@ -15,7 +15,7 @@ its first row, so a test can tell which prediction an observation came from.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Mapping, Protocol, runtime_checkable
 
 import numpy as np
@@ -26,11 +26,14 @@ from .base import Episode, Perturbation, Step, param
 
 @dataclass(frozen=True)
 class PolicyOutput:
-    """What one policy call returns: actions (7 floats, or a chunk of them, one row per step) and
-    optionally predicted frames per camera (raw orientation, same shape as the camera's image)."""
+    """What one policy call returns (the one type the perturbation layer and the rollout layer
+    share): actions (7 floats, or a chunk of them, one row per step), optionally predicted frames
+    per camera (raw orientation, same shape as the camera's image; or (H', h, w, 3) for a chunk)
+    and whatever the policy wants logged (`info`)."""
 
     actions: np.ndarray
     predicted_frames: Mapping[str, np.ndarray] | None = None
+    info: Mapping = field(default_factory=dict)
 
 
 @runtime_checkable

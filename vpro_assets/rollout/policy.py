@@ -21,12 +21,13 @@ perturbation layer for Prediction-Reality Divergence. Such a policy says so with
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Mapping, Optional, Protocol, runtime_checkable
 
 import numpy as np
 
 from ..errors import VProError
+from ..perturb.prediction import PolicyOutput  # noqa: F401  (one type for both layers; adapters import it from here)
 
 ACTION_DIM = 7
 
@@ -86,13 +87,6 @@ class Observation:
                    instruction=instruction)
 
 
-@dataclass
-class PolicyOutput:
-    actions: np.ndarray  # (H, 7)
-    predicted_frames: Optional[Mapping[str, np.ndarray]] = None  # camera -> (H', h, w, 3) or (h, w, 3)
-    info: dict = field(default_factory=dict)
-
-
 @runtime_checkable
 class Policy(Protocol):
     policy_id: str
@@ -126,8 +120,8 @@ def validate_actions(actions, where: str = "policy") -> np.ndarray:
 def as_output(result, where: str = "policy") -> PolicyOutput:
     """Accept a PolicyOutput, a dict with 'actions' (and optional 'predicted_frames'), or an array."""
     if isinstance(result, PolicyOutput):
-        return PolicyOutput(validate_actions(result.actions, where), result.predicted_frames, result.info)
-    if hasattr(result, "actions") and not isinstance(result, np.ndarray):  # another layer's output record
+        return PolicyOutput(validate_actions(result.actions, where), result.predicted_frames, dict(result.info))
+    if hasattr(result, "actions") and not isinstance(result, np.ndarray):  # a user's own record with .actions
         return PolicyOutput(validate_actions(result.actions, where), getattr(result, "predicted_frames", None))
     if isinstance(result, Mapping):
         if "actions" not in result:

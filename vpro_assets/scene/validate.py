@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field
+from typing import Iterator
 
 import numpy as np
 
@@ -105,3 +106,38 @@ def validate_case(case: dict) -> Validation:
         env.close()
     result.seconds = time.perf_counter() - started
     return result
+
+
+def _validate_group(cases: list[dict]) -> list[Validation]:
+    out = []
+    for case in cases:
+        try:
+            out.append(validate_case(case))
+        except Exception as exc:  # a crash inside LIBERO/MuJoCo: report it against the case
+            out.append(Validation(case["id"], [f"{type(exc).__name__}: {exc}"]))
+    return out
+
+
+def validate(cases: list[dict], jobs: int = 1, progress: bool = True) -> Iterator[Validation]:
+    """Validate scene cases, `jobs` processes in parallel (one task's cases per process, so its
+    base scene is measured once); results come as each task's cases finish."""
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from tqdm import tqdm
+
+    from .build import _worker_init
+
+    groups: dict[str, list[dict]] = {}
+    for c in cases:
+        groups.setdefault(c["task"], []).append(c)
+    with tqdm(total=len(cases), unit="case", desc="vpro validate", disable=not progress) as bar:
+        if jobs <= 1 or len(groups) <= 1:
+            for case in cases:
+                yield from _validate_group([case])
+                bar.update(1)
+            return
+        with ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init) as pool:
+            for fut in as_completed([pool.submit(_validate_group, g) for g in groups.values()]):
+                done = fut.result()
+                bar.update(len(done))
+                yield from done
