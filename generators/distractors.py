@@ -9,7 +9,9 @@ that has a free spot near the target is used):
   dominant colour (a generated MJCF object registered under its own name).
 - same_shape: the object of another category whose bounding-box aspect ratios are closest.
 - same_affordance: an object of the target's grasp class (bowl, box, bottle, handle, can, flat)
-  and another category (else another model of the same class), closest in size.
+  and another category (else another model of the same class), closest in size; a class with
+  no other member takes the class grasped the same way (GRASP_ALIKE: a plate, the only flat
+  object, is pinched at its rim like a bowl).
 - familiar_position: the same-category object stands at the target's familiar position (mean of
   its position over LIBERO's 50 initial states); the target is displaced to the nearest free spot.
 - trajectory_obstacle: an object of another family, 6 cm across and at least 8 cm tall if the pool
@@ -34,6 +36,7 @@ from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 from . import register
 
 JITTER = 0.015
+GRASP_ALIKE = {"flat": "bowl"}  # grasp class -> the class grasped the same way, when it has no other member
 OBSTACLE_WIDTH, OBSTACLE_MIN_HEIGHT = 0.06, 0.08
 
 
@@ -66,6 +69,7 @@ def choose(ctx: GenContext, rule: str) -> list[pool_mod.PoolObject]:
                      lambda p: (round(float(np.linalg.norm(p.aspect - target.aspect)), 6), size(p)), rule)
     if rule == "same_affordance":
         grasp = [p for p in others if p.grasp == target.grasp]
+        grasp = grasp or [p for p in others if p.grasp == GRASP_ALIKE.get(target.grasp)]
         return _pick(ctx, [p for p in grasp if p.category != target.category] or grasp, size, rule)
     if rule == "trajectory_obstacle":
         fam = [p for p in others if p.family != target.family]

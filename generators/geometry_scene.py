@@ -17,7 +17,8 @@ def _deformed(category: str, deformation: str, severity: int) -> GeneratedObject
 
     return GeneratedObject(
         name=tg.object_name(category, deformation, severity),
-        write=lambda root: tg.generate_deformed_object(category, deformation, severity, root).xml_path,
+        # Returns the pipeline's record (xml_path, and per-stage timings the build adds up).
+        write=lambda root: tg.generate_deformed_object(category, deformation, severity, root),
         template=category, fingerprint=f"target_geometry|{category}|{deformation}|{severity}", shared=True,
     )
 

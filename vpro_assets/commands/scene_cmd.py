@@ -1,11 +1,13 @@
 """`vpro build`, `vpro validate`: scene cases as files, and checked (`vpro preview` shows them)."""
 from __future__ import annotations
 
+import json
 import sys
 import time
 from pathlib import Path
 
 from .. import paths
+from ..atomic import write_text_atomic
 from ..catalog import load_catalog
 from ..selection import describe, select_cases
 
@@ -24,6 +26,8 @@ def add_parser(sub) -> None:
     b.add_argument("-j", "--jobs", type=int, default=1, help="worker processes (default 1; a case takes ~10-25 s)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.add_argument("--no-record", action="store_true", help="do not record the hashes in the lock file")
+    b.add_argument("--timings", type=Path, default=None, metavar="FILE.json",
+                   help="write every case's status, seconds and per-stage split (mesh work, settling...) to FILE.json")
     b.add_argument("--catalog", type=Path, default=None, help="catalog to read (default: catalog.json)")
     b.set_defaults(run=run_build)
 
@@ -62,8 +66,14 @@ def run_build(args) -> int:
         for k, v in r.stages.items():
             stages[k] = stages.get(k, 0.0) + v
     split = ", ".join(f"{k} {v:.1f} s" for k, v in stages.items())
-    print(f"{built} built, {unchanged} unchanged, {len(failed)} failed in {time.perf_counter() - started:.1f} s"
-          f" ({split})", file=sys.stderr)
+    wall = time.perf_counter() - started
+    print(f"{built} built, {unchanged} unchanged, {len(failed)} failed in {wall:.1f} s ({split})", file=sys.stderr)
+    if args.timings:
+        write_text_atomic(args.timings, json.dumps({
+            "wall_seconds": round(wall, 1), "jobs": args.jobs, "stage_seconds": {k: round(v, 1) for k, v in stages.items()},
+            "cases": [{"case": r.case_id, "status": r.status, "seconds": round(r.seconds, 2),
+                       "stages": {k: round(v, 2) for k, v in r.stages.items()}, "error": r.error} for r in results],
+        }, indent=1) + "\n")
     return 1 if failed else 0
 
 

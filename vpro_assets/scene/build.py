@@ -31,7 +31,6 @@ import numpy as np
 
 from ..hashing import sha256_bytes, sha256_file  # noqa: F401  (the scene modules import them from here)
 from .. import paths
-from ..atomic import write_bytes_atomic, write_text_atomic
 from ..errors import VProError
 from . import bddl_doc, sim, state_files
 from .context import GenContext
@@ -111,8 +110,9 @@ def _is_current(case_id: str, key: str) -> dict | None:
     return meta
 
 
-def ensure_objects(generated, case_id: str) -> dict[str, Path]:
-    """Write (once, atomically) and register the generated objects a case needs."""
+def ensure_objects(generated, case_id: str, stages: dict | None = None) -> dict[str, Path]:
+    """Write (once, atomically) and register the generated objects a case needs; the seconds a
+    shared producer reports per stage (mesh work) are added to `stages` as `object_<stage>`."""
     from ..object_registry import register_mjcf_object
 
     out = {}
@@ -120,7 +120,11 @@ def ensure_objects(generated, case_id: str) -> dict[str, Path]:
         final = objects_root() / obj.name
         xml = final / f"{obj.name}.xml"
         if obj.shared:  # the producer caches, lays out and publishes its files itself
-            xml = Path(obj.write(objects_root()))
+            written = obj.write(objects_root())
+            xml = Path(getattr(written, "xml_path", written))
+            for stage, seconds in getattr(written, "timings", {}).items():
+                if stages is not None:
+                    stages[f"object_{stage}"] = stages.get(f"object_{stage}", 0.0) + seconds
         elif not xml.is_file():
             tmp = objects_root() / f".tmp-{obj.name}-{os.getpid()}"
             shutil.rmtree(tmp, ignore_errors=True)
@@ -162,7 +166,8 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
     t = time.perf_counter()
     ctx = GenContext(case=case, base=base)
     variant = generator.fn(ctx)
-    ensure_objects(variant.generated_objects, cid)
+    ensure_objects(variant.generated_objects, cid, stages)
+    # "generate" includes the object_* stages (mesh work of generated objects).
     stages["generate"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -249,6 +254,15 @@ def clean_partial() -> None:
                 shutil.rmtree(tmp, ignore_errors=True)
 
 
+def _collect(done: list[CaseResult], results: list[CaseResult], bar) -> None:
+    """Add finished cases to the results; a failure is shown as it happens, above the bar."""
+    results += done
+    for r in done:
+        if r.status == "failed":
+            bar.write(f"FAILED {r.error}")
+    bar.update(len(done))
+
+
 def build(cases: list[dict], jobs: int = 1, force: bool = False, progress: bool = True) -> list[CaseResult]:
     """Build scene cases; other cases in the selection are ignored (they have no scene artifacts)."""
     from tqdm import tqdm
@@ -264,16 +278,13 @@ def build(cases: list[dict], jobs: int = 1, force: bool = False, progress: bool 
         if jobs <= 1 or len(groups) <= 1:
             for group in groups.values():
                 for case in group:
-                    results += _build_group([case], force)
-                    bar.update(1)
+                    _collect(_build_group([case], force), results, bar)
         else:
             # One task per submission, so each worker measures a base scene once per task it gets.
             with ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init) as pool:
                 futures = [pool.submit(_build_group, g, force) for g in groups.values()]
                 for fut in as_completed(futures):
-                    done = fut.result()
-                    results += done
-                    bar.update(len(done))
+                    _collect(fut.result(), results, bar)
     finally:
         bar.close()
     order = {c["id"]: i for i, c in enumerate(cases)}

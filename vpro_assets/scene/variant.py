@@ -42,7 +42,8 @@ class JointSetting:
 @dataclass(frozen=True)
 class GeneratedObject:
     """An MJCF object the case needs registered under `name` (see vpro_assets.object_registry).
-    `write(directory) -> xml_path` writes its files deterministically."""
+    `write(directory) -> xml_path` writes its files deterministically (a shared producer may return
+    a record with `.xml_path` and `.timings`, seconds per stage of its own work)."""
 
     name: str
     write: Callable[[Path], Path] = field(compare=False)
