@@ -114,3 +114,34 @@ def test_catalog_artifact_check_reports_changed_and_unbuilt_files(tmp_path, monk
     diffs, checked, missing = lock.check_built(catalog)
     assert (checked, missing) == (2, 1)
     assert len(diffs) == 1 and "case a: scene/a/y.npz" in diffs[0]
+
+
+def test_generated_object_tree_hash_covers_folder_and_shared_textures(tmp_path, monkeypatch):
+    """A generated object is recorded as one hash over its folder and the shared textures its MJCF
+    references: changing a hull, adding a file or changing a texture outside the folder changes it,
+    and `check_built` names the object folder."""
+    from vpro_assets.object_registry import object_files, tree_sha256
+    from vpro_assets.scene import lock
+
+    monkeypatch.setenv("VPRO_OUT", str(tmp_path))
+    folder = tmp_path / "objects" / "vpro_thing"
+    (folder / "meshes").mkdir(parents=True)
+    (tmp_path / "objects" / "textures").mkdir()
+    (folder / "meshes" / "hull_a.obj").write_text("v 0 0 0\n")
+    (tmp_path / "objects" / "textures" / "wood.png").write_bytes(b"png1")
+    (tmp_path / "objects" / "textures" / "unused.png").write_bytes(b"other object's")
+    xml = folder / "vpro_thing.xml"
+    xml.write_text('<mujoco><asset><texture file="../textures/wood.png"/><mesh file="meshes/hull_a.obj"/></asset></mujoco>')
+    assert [p.relative_to(tmp_path / "objects").as_posix() for p in object_files(xml)] == [
+        "textures/wood.png", "vpro_thing/meshes/hull_a.obj", "vpro_thing/vpro_thing.xml"]
+    first = tree_sha256(xml)
+    catalog = {"cases": [{"id": "a", "artifacts": {"objects/vpro_thing/": first}}]}
+    assert lock.check_built(catalog) == ([], 1, 0)
+    (tmp_path / "objects" / "textures" / "wood.png").write_bytes(b"png2")
+    second = tree_sha256(xml)
+    (folder / "vpro_thing.usda").write_text("#usda 1.0\n")
+    third = tree_sha256(xml)
+    (folder / "meshes" / "hull_a.obj").write_text("v 0 0 1\n")
+    assert len({first, second, third, tree_sha256(xml)}) == 4
+    diffs, checked, missing = lock.check_built(catalog)
+    assert (checked, missing) == (1, 0) and len(diffs) == 1 and "case a: objects/vpro_thing/" in diffs[0]

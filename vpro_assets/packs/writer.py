@@ -85,17 +85,13 @@ def _scene_sources(case: dict) -> dict:
 
 
 def _copy_object(obj: dict, assets: Path) -> None:
-    """The object's folder, plus files its MJCF references outside it (shared textures), at the
-    same relative places under assets/ as under out/objects/."""
-    import xml.etree.ElementTree as ET
+    """The object's files (`object_registry.object_files`: its folder plus shared textures it
+    references) at the same relative places under assets/ as under out/objects/."""
+    from ..object_registry import object_files
 
-    src_dir = Path(obj["dir"])
-    shutil.copytree(src_dir, assets / obj["name"], dirs_exist_ok=True)
-    for element in ET.parse(src_dir / obj["xml"]).getroot().iter():
-        ref = element.get("file")
-        if ref and not (src_dir / ref).resolve().is_relative_to(src_dir.resolve()):
-            rel = (src_dir / ref).resolve().relative_to(src_dir.parent.resolve())
-            _copy(src_dir.parent / rel, assets / rel)
+    src_root = Path(obj["dir"]).resolve().parent
+    for path in object_files(Path(obj["dir"]) / obj["xml"]):
+        _copy(path, assets / path.relative_to(src_root))
 
 
 def _copy(src: Path, dest: Path) -> None:
