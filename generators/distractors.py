@@ -14,10 +14,18 @@ that has a free spot near the target is used):
   object, is pinched at its rim like a bowl).
 - familiar_position: the same-category object stands at the target's familiar position (mean of
   its position over LIBERO's 50 initial states); the target is displaced to the nearest free spot.
+  A target that starts on or in something (a ramekin, a drawer, a cabinet top) leaves its place
+  there to the best-ranked candidate no wider than itself, which takes the target's exact place
+  in each trial (same support, same footprint centre).
 - trajectory_obstacle: an object of another family, 6 cm across and at least 8 cm tall if the pool
   has one (closest to that), on the straight path from the target to where it goes (at 50, 40,
   60, 30 or 70% of it, the first clear of everything by 3 cm), or, where the path is too short,
   at the free spot nearest its midpoint; clear of target and receptacle, so a detour exists.
+  Where neither fits (a crowded path, e.g. to a cabinet in libero_goal), the thinnest tall object
+  of another family goes to the point within 6 cm of the path (20-80% of its length) with the most
+  room, if that leaves at least 1 mm beyond its padded footprint to everything in every trial;
+  where the carrying path has no such room either (a mug right in front of the microwave it goes
+  into), the same search runs on the reaching path, from where the gripper starts to the target.
 Placement: added objects sit at a nominal spot (the free-spot rule of `scene.context`, or the
 rule's anchor) written as a 2 cm region in the BDDL, jittered per trial by up to 1.5 cm with the
 trial's seed, clear of every other object; an object never overlaps the target or receptacle, so
@@ -36,6 +44,8 @@ from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 from . import register
 
 JITTER = 0.015
+ON_TABLE_TOL = 0.01  # m: a target whose lowest point is further from the table surface rests on something
+CROWDED_CLEARANCE = 0.001  # m: least room (beyond the 10% padded footprint radius) around an obstacle on a crowded path
 GRASP_ALIKE = {"flat": "bowl"}  # grasp class -> the class grasped the same way, when it has no other member
 OBSTACLE_WIDTH, OBSTACLE_MIN_HEIGHT = 0.06, 0.08
 
@@ -81,19 +91,22 @@ def choose(ctx: GenContext, rule: str) -> list[pool_mod.PoolObject]:
 def _variant(ctx: GenContext, rule: str, category: str, spot: np.ndarray, summary: str,
              extra_placements: list[Placement] = (), generated: list[GeneratedObject] = (),
              init_replace: dict | None = None, extra_regions: list = (), details: dict | None = None,
-             distractor_region_name: str | None = None) -> SceneVariant:
+             distractor_region_name: str | None = None, distractor_predicate: str = "On",
+             placement: dict | None = None) -> SceneVariant:
+    """`placement`: Placement fields of the added object other than instance and anchor (default:
+    jittered by up to JITTER around the spot)."""
     instance = ctx.new_instance(category)
     regions = list(extra_regions)
     if distractor_region_name is None:
         region = ctx.region_at("vpro_distractor_region", spot)
         regions.append(region)
         distractor_region_name = region.full_name
-    init = ctx.init_with(replace=init_replace, add=[f"(On {instance} {distractor_region_name})"])
+    init = ctx.init_with(replace=init_replace, add=[f"({distractor_predicate} {instance} {distractor_region_name})"])
     return SceneVariant(
         case_id=ctx.case_id, generator=f"task_relevant_distractors/{rule}", summary=summary,
         objects=list(ctx.base.bddl.objects) + [(instance, category)], fixtures=list(ctx.base.bddl.fixtures),
         regions=regions, init=init,
-        placements=list(extra_placements) + [Placement(instance, tuple(spot), 0.0, JITTER)],
+        placements=list(extra_placements) + [Placement(instance, tuple(spot), **(placement or {"r_max": JITTER}))],
         generated_objects=list(generated), added=[instance],
         details={"rule": rule, "distractor": instance, "distractor_object": category,
                  "nominal_xy": [round(float(v), 4) for v in spot], **(details or {})},
@@ -148,26 +161,42 @@ def same_color(ctx: GenContext) -> SceneVariant:
                     generated=[generated], details={"source_object": chosen.name, "color": list(color)})
 
 
-@register("task_relevant_distractors/familiar_position")
+def _on_table(ctx: GenContext, instance: str) -> bool:
+    low = float(np.median([layout[instance]["lo"][2] for layout in ctx.base.layouts]))
+    return abs(low - ctx.base.surface_z) < ON_TABLE_TOL
+
+
+@register("task_relevant_distractors/familiar_position", version=2)
 def familiar_position(ctx: GenContext) -> SceneVariant:
     """A same-category object takes the target's familiar position; the target moves nearby."""
-    chosen = choose(ctx, "familiar_position")[0]
     target = ctx.task.target
+    ranked = choose(ctx, "familiar_position")
+    on_table = _on_table(ctx, target)
+    if on_table:
+        chosen = ranked[0]
+    else:  # it must fit where the target stood (on a ramekin, in a drawer)
+        width = max(ctx.target_pool().footprint)
+        fitting = [p for p in ranked if max(p.footprint) <= width]
+        if not fitting:
+            raise ctx.fail(f"no familiar_position candidate is as narrow as {target} ({width:.3f} m) to take its place")
+        chosen = fitting[0]
     familiar = ctx.familiar_xy(target)
     t_radius = ctx.target_pool().footprint_radius
     reach = t_radius + chosen.footprint_radius + 0.03
     radii = tuple(round(reach + d, 3) for d in (0.0, 0.03, 0.06, 0.09, 0.12, 0.15, 0.18))
     displaced = ctx.free_spot(familiar, t_radius, ignore=(target,), radii=radii)
     old = ctx.init_of(target)
-    old_region = old.strip("()").split()[2]
+    predicate, _, old_region = old.strip("()").split()
     new_region = ctx.region_at("vpro_displaced_region", displaced)
+    where = "the target's familiar position" if on_table else f"the target's place ({predicate.lower()} {old_region})"
     return _variant(
         ctx, "familiar_position", chosen.name, familiar,
-        f"adds {chosen.name} at the target's familiar position; the target starts {np.linalg.norm(displaced - familiar):.2f} m away",
+        f"adds {chosen.name} at {where}; the target starts {np.linalg.norm(displaced - familiar):.2f} m away",
         extra_placements=[Placement(target, tuple(displaced), 0.0, JITTER)],
         init_replace={old: f"(On {target} {new_region.full_name})"}, extra_regions=[new_region],
-        distractor_region_name=old_region,
-        details={"familiar_xy": [round(float(v), 4) for v in familiar],
+        distractor_region_name=old_region, distractor_predicate=predicate,
+        placement=None if on_table else {"take_place_of": target},
+        details={"familiar_xy": [round(float(v), 4) for v in familiar], "target_on_table": on_table,
                  "target_displaced_xy": [round(float(v), 4) for v in displaced]},
     )
 
@@ -185,8 +214,51 @@ def trajectory_obstacle(ctx: GenContext) -> SceneVariant:
         if ctx.clearance(xy, radius) >= 0.03:
             best = np.round(xy, 4)
             break
+    placement, path_name = None, "carrying"
     if best is None:  # the path is too short for an object between: the free spot nearest its midpoint
-        best = ctx.free_spot(mid, radius, radii=(0.04, 0.07, 0.10, 0.13, 0.16, 0.20))
+        from generators import GeneratorError
+
+        try:
+            best = ctx.free_spot(mid, radius, radii=(0.04, 0.07, 0.10, 0.13, 0.16, 0.20))
+        except GeneratorError:
+            chosen, best, path_name = _crowded_path_spot(ctx, start, end)
+            placement = {"r_max": 0.0, "margin": CROWDED_CLEARANCE / 2}  # no jitter: its room holds in every trial
     return _variant(ctx, "trajectory_obstacle", chosen.name, best,
-                    f"adds {chosen.name} on the path from the target to its destination",
-                    details={"path": [[round(float(v), 4) for v in start], [round(float(v), 4) for v in end]]})
+                    f"adds {chosen.name} on the path from the target to its destination" if path_name == "carrying"
+                    else f"adds {chosen.name} on the path the gripper takes to reach the target",
+                    placement=placement,
+                    details={"path": [[round(float(v), 4) for v in start], [round(float(v), 4) for v in end]],
+                             **({} if path_name == "carrying" else {"obstructs": path_name})})
+
+
+def _crowded_path_spot(ctx: GenContext, start: np.ndarray, end: np.ndarray):
+    """The thinnest tall obstacle, the point near the carrying path (else the reaching path) with
+    the most room for it, and which path that is."""
+    chosen = min(choose(ctx, "trajectory_obstacle"), key=lambda p: (p.footprint_radius, p.name))
+    tried = []
+    for name, (a, b) in (("carrying", (start, end)), ("reaching", (ctx.base.gripper_xy, start))):
+        xy, room = _roomiest_near(ctx, a, b, chosen.footprint_radius)
+        if xy is not None and room >= CROWDED_CLEARANCE:
+            return chosen, xy, name
+        tried.append(f"{name} path: at most {room * 1000:.1f} mm")
+    raise ctx.fail(f"no room for a trajectory obstacle ({chosen.name}) near the path to the destination "
+                   f"({end[0]:.3f}, {end[1]:.3f}): {'; '.join(tried)}")
+
+
+def _roomiest_near(ctx: GenContext, a: np.ndarray, b: np.ndarray, radius: float):
+    """(point, room) within 6 cm of segment a-b (20-80% of its length) with the most room."""
+    path = b - a
+    if np.linalg.norm(path) < 1e-6:
+        return None, -math.inf
+    normal = np.array([-path[1], path[0]]) / np.linalg.norm(path)
+    lo, hi = ctx.bounds()
+    best, room = None, -math.inf
+    for frac in np.linspace(0.2, 0.8, 13):
+        for offset in np.linspace(-0.06, 0.06, 13):
+            xy = np.round(a + frac * path + offset * normal, 4)
+            if np.any(xy < lo) or np.any(xy > hi) or not ctx.base.in_view(xy):
+                continue
+            gap = ctx.clearance(xy, radius)
+            if gap > room + 1e-9:
+                best, room = xy, gap
+    return best, room

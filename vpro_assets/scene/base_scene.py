@@ -36,6 +36,7 @@ class BaseScene:
     surface_z: float  # height of the surface objects rest on (LIBERO's first state, settled)
     camera: tuple  # agentview (position, 3x3 orientation, vertical field of view in degrees)
     ray_scene: tuple  # (MjModel, MjData) of the settled first state, for visibility rays
+    gripper_xy: np.ndarray  # mean xy of the gripper (end-effector site) over the trial rows: where reaches start
 
     def in_view(self, xy, z: float | None = None, margin: float = 0.85) -> bool:
         """Whether a point on the table is inside the central `margin` of the agentview image."""
@@ -76,15 +77,16 @@ def base_scene(task_key: str) -> BaseScene:
     env = sim.physics_env(str(path))
     try:
         slots = sim.joint_slots(env)
-        layouts, positions = [], {}
+        layouts, positions, grippers = [], {}, []
+        raw = sim.raw(env)
         for k in range(len(rows)):
             sim.load_state(env, rows[k])
             layout = sim.body_layout(env)
             if k < TRIALS_PER_CASE:
                 layouts.append(layout)
+                grippers.append(np.array(raw.sim.data.site_xpos[raw.robots[0].eef_site_id][:2]))
             for name, v in layout.items():
                 positions.setdefault(name, []).append(v["pos"])
-        raw = sim.raw(env)
         sim.load_state(env, rows[0])
         sim.settle(env)
         surface = float(np.median([v["lo"][2] for v in sim.body_layout(env).values() if v["kind"] == "object"]))
@@ -96,7 +98,7 @@ def base_scene(task_key: str) -> BaseScene:
             site_joints=_site_joints(env),
             fixture_z=float(raw.workspace_offset[2] + getattr(raw, "z_offset", 0.0)), surface_z=surface,
             camera=_camera(env, "agentview"),
-            ray_scene=_ray_scene(env),
+            ray_scene=_ray_scene(env), gripper_xy=np.mean(grippers, axis=0),
         )
     finally:
         env.close()

@@ -189,8 +189,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
         stages["variant_env"] = time.perf_counter() - t
         t = time.perf_counter()
         try:
-            rows = [trial_state(env, variant, base.rows[k], base.slots, k,
-                                {n: float(v["lo"][2]) for n, v in base.layouts[k].items()})
+            rows = [trial_state(env, variant, base.rows[k], base.slots, k, base.layouts[k])
                     for k in range(len(case["trial_seeds"]))]
         finally:
             env.close()

@@ -54,7 +54,7 @@ def _clear(xy: np.ndarray, radius: float, others: list[tuple[np.ndarray, np.ndar
     return True
 
 
-def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str], base_lows: dict) -> None:
+def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str], base_layout: dict) -> None:
     """Apply the variant's placements to the loaded state (positions, poses, heights). An object
     that keeps its LIBERO place (a turned or replaced target) keeps its lowest point where LIBERO's
     object had it (on the table, in a drawer); a moved or added one goes onto the table surface."""
@@ -80,6 +80,10 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
                   if k != p.instance and k not in pending]
         if p.keep_xy:
             xy = qpos[:2].copy()
+        elif p.take_place_of:
+            was = base_layout[p.take_place_of]
+            # Footprint centre on the other instance's footprint centre (origins need not be centres).
+            xy = (was["lo"][:2] + was["hi"][:2]) / 2 - ((own["lo"][:2] + own["hi"][:2]) / 2 - qpos[:2])
         else:
             anchor = np.asarray(p.anchor, dtype=float)
             for draw in range(MAX_DRAWS):
@@ -98,7 +102,12 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
         data.set_joint_qpos(joint, qpos)
         raw.sim.forward()
         lo = sim.body_layout(env)[p.instance]["lo"][2]
-        floor = base_lows[p.instance] if p.keep_xy and p.instance in base_lows else support
+        if p.take_place_of:
+            floor = float(base_layout[p.take_place_of]["lo"][2])
+        elif p.keep_xy and p.instance in base_layout:
+            floor = float(base_layout[p.instance]["lo"][2])
+        else:
+            floor = support
         qpos[2] += floor + SUPPORT_GAP - lo
         data.set_joint_qpos(joint, qpos)
         data.set_joint_qvel(joint, np.zeros(6))
@@ -132,9 +141,9 @@ def drift(env, steps: int = sim.SETTLE_STEPS) -> list[str]:
 
 
 def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: dict, trial: int,
-                base_lows: dict | None = None) -> np.ndarray:
+                base_layout: dict | None = None) -> np.ndarray:
     """One accepted, settled initial state (a LIBERO state row) for `trial` of the case.
-    `base_lows`: instance -> lowest point of its geometry in LIBERO's state of this trial."""
+    `base_layout`: instance -> {lo, hi} of its geometry in LIBERO's state of this trial."""
     added = set(variant.added)
     reasons: list[str] = []
     for attempt in range(MAX_ATTEMPTS):
@@ -146,7 +155,7 @@ def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: di
             raw.sim.data.set_joint_qpos(js.joint, rng.uniform(js.low, js.high))
         raw.sim.forward()
         try:
-            _place(env, variant, rng, added, base_lows or {})
+            _place(env, variant, rng, added, base_layout or {})
         except InitStateError as exc:
             reasons.append(f"attempt {attempt}: {exc}")
             continue

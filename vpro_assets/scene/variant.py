@@ -28,6 +28,10 @@ class Placement:
     margin: float = 0.015
     invert: bool = False  # turned upside down (180 degrees about the world x axis)
     keep_xy: bool = False  # keep LIBERO's xy of this trial (only the pose or height changes)
+    # Stand where this other instance stood in LIBERO's state of the trial (same footprint centre,
+    # same lowest point: on the same support, in the same drawer); no clearance check, since that
+    # instance is placed elsewhere first.
+    take_place_of: str | None = None
 
 
 @dataclass(frozen=True)
