@@ -14,9 +14,10 @@ that has a free spot near the target is used):
   object, is pinched at its rim like a bowl).
 - familiar_position: the same-category object stands at the target's familiar position (mean of
   its position over LIBERO's 50 initial states); the target is displaced to the nearest free spot.
-  A target that starts on or in something (a ramekin, a drawer, a cabinet top) leaves its place
-  there to the best-ranked candidate no wider than itself, which takes the target's exact place
-  in each trial (same support, same footprint centre).
+  The best-ranked candidate that fits there (1.5 cm from every other object in every trial) is
+  used; where none fits (a crowded table) or the target starts on or in something (a ramekin, a
+  drawer, a cabinet top), the best-ranked candidate at most 10% wider than the target takes the
+  target's exact place in each trial instead (same support, same footprint centre).
 - trajectory_obstacle: an object of another family, 6 cm across and at least 8 cm tall if the pool
   has one (closest to that), on the straight path from the target to where it goes (at 50, 40,
   60, 30 or 70% of it, the first clear of everything by 3 cm), or, where the path is too short,
@@ -45,6 +46,8 @@ from . import register
 
 JITTER = 0.015
 ON_TABLE_TOL = 0.01  # m: a target whose lowest point is further from the table surface rests on something
+FAMILIAR_ROOM = 0.015  # m: room a competitor needs around the familiar position (the trial placement margin)
+TAKE_PLACE_WIDTH = 1.1  # a competitor taking the target's exact place is at most this much wider than the target
 CROWDED_CLEARANCE = 0.001  # m: least room (beyond the 10% padded footprint radius) around an obstacle on a crowded path
 GRASP_ALIKE = {"flat": "bowl"}  # grasp class -> the class grasped the same way, when it has no other member
 OBSTACLE_WIDTH, OBSTACLE_MIN_HEIGHT = 0.06, 0.08
@@ -171,32 +174,36 @@ def familiar_position(ctx: GenContext) -> SceneVariant:
     """A same-category object takes the target's familiar position; the target moves nearby."""
     target = ctx.task.target
     ranked = choose(ctx, "familiar_position")
-    on_table = _on_table(ctx, target)
-    if on_table:
-        chosen = ranked[0]
-    else:  # it must fit where the target stood (on a ramekin, in a drawer)
-        width = max(ctx.target_pool().footprint)
-        fitting = [p for p in ranked if max(p.footprint) <= width]
-        if not fitting:
-            raise ctx.fail(f"no familiar_position candidate is as narrow as {target} ({width:.3f} m) to take its place")
-        chosen = fitting[0]
     familiar = ctx.familiar_xy(target)
+    on_table = _on_table(ctx, target)
+    fits = [p for p in ranked if on_table and ctx.clearance(familiar, p.footprint_radius, ignore=(target,)) >= FAMILIAR_ROOM]
+    take_place = not fits
+    if fits:
+        chosen = fits[0]
+    else:  # it takes the target's exact place (on the table, on a ramekin, in a drawer): it must fit there
+        width = max(ctx.target_pool().footprint)
+        narrow = [p for p in ranked if max(p.footprint) <= TAKE_PLACE_WIDTH * width]
+        if not narrow:
+            raise ctx.fail(f"no familiar_position candidate fits at the familiar position or is as narrow as "
+                           f"{target} ({width:.3f} m) to take its place")
+        chosen = narrow[0]
     t_radius = ctx.target_pool().footprint_radius
     reach = t_radius + chosen.footprint_radius + 0.03
-    radii = tuple(round(reach + d, 3) for d in (0.0, 0.03, 0.06, 0.09, 0.12, 0.15, 0.18))
+    radii = tuple(round(reach + 0.03 * k, 3) for k in range(11))  # nearest first, up to 30 cm further
     displaced = ctx.free_spot(familiar, t_radius, ignore=(target,), radii=radii)
     old = ctx.init_of(target)
     predicate, _, old_region = old.strip("()").split()
     new_region = ctx.region_at("vpro_displaced_region", displaced)
-    where = "the target's familiar position" if on_table else f"the target's place ({predicate.lower()} {old_region})"
+    where = (f"the target's place ({predicate.lower()} {old_region})" if take_place
+             else "the target's familiar position")
     return _variant(
         ctx, "familiar_position", chosen.name, familiar,
         f"adds {chosen.name} at {where}; the target starts {np.linalg.norm(displaced - familiar):.2f} m away",
         extra_placements=[Placement(target, tuple(displaced), 0.0, JITTER)],
         init_replace={old: f"(On {target} {new_region.full_name})"}, extra_regions=[new_region],
         distractor_region_name=old_region, distractor_predicate=predicate,
-        placement=None if on_table else {"take_place_of": target},
-        details={"familiar_xy": [round(float(v), 4) for v in familiar], "target_on_table": on_table,
+        placement={"take_place_of": target} if take_place else None,
+        details={"familiar_xy": [round(float(v), 4) for v in familiar], "takes_target_place": take_place,
                  "target_displaced_xy": [round(float(v), 4) for v in displaced]},
     )
 
