@@ -14,6 +14,7 @@ import numpy as np
 
 from .. import libero_bridge
 from ..env import libero_init_states
+from ..errors import VProError
 from ..seeding import TRIALS_PER_CASE
 from ..tasks import TaskRecord, get_task
 from . import sim
@@ -25,8 +26,9 @@ class BaseScene:
     task: TaskRecord
     bddl: BaseBDDL
     rows: np.ndarray  # LIBERO's initial states (all of them)
+    trial_rows: list[int]  # LIBERO row each trial starts from: row k, unless LIBERO's own row k is unsound
     slots: dict  # joint name -> JointSlot of the base model
-    layouts: list[dict]  # per trial row: instance -> {kind, pos, lo, hi}
+    layouts: list[dict]  # per trial: instance -> {kind, pos, lo, hi} in its LIBERO row
     mean_pos: dict[str, np.ndarray]  # instance -> mean world position over every LIBERO row
     workspace: str  # fixture the regions are on ("main_table", "kitchen_table", "floor", ...)
     workspace_offset: np.ndarray  # world position of LIBERO's region coordinate origin
@@ -77,21 +79,23 @@ def base_scene(task_key: str) -> BaseScene:
     env = sim.physics_env(str(path))
     try:
         slots = sim.joint_slots(env)
-        layouts, positions, grippers = [], {}, []
-        raw = sim.raw(env)
+        positions: dict[str, list] = {}
         for k in range(len(rows)):
             sim.load_state(env, rows[k])
-            layout = sim.body_layout(env)
-            if k < TRIALS_PER_CASE:
-                layouts.append(layout)
-                grippers.append(np.array(raw.sim.data.site_xpos[raw.robots[0].eef_site_id][:2]))
-            for name, v in layout.items():
+            for name, v in sim.body_layout(env).items():
                 positions.setdefault(name, []).append(v["pos"])
+        raw = sim.raw(env)
+        trial_rows = _sound_rows(env, rows, TRIALS_PER_CASE, task.key)
+        layouts, grippers = [], []
+        for k in trial_rows:
+            sim.load_state(env, rows[k])
+            layouts.append(sim.body_layout(env))
+            grippers.append(np.array(raw.sim.data.site_xpos[raw.robots[0].eef_site_id][:2]))
         sim.load_state(env, rows[0])
         sim.settle(env)
         surface = float(np.median([v["lo"][2] for v in sim.body_layout(env).values() if v["kind"] == "object"]))
         return BaseScene(
-            task=task, bddl=bddl, rows=rows, slots=slots, layouts=layouts,
+            task=task, bddl=bddl, rows=rows, trial_rows=trial_rows, slots=slots, layouts=layouts,
             mean_pos={k: np.mean(v, axis=0) for k, v in positions.items()},
             workspace=raw.workspace_name, workspace_offset=np.asarray(raw.workspace_offset, dtype=float),
             object_classes={**raw.objects_dict, **raw.fixtures_dict},
@@ -102,6 +106,30 @@ def base_scene(task_key: str) -> BaseScene:
         )
     finally:
         env.close()
+
+
+def _sound_rows(env, rows: np.ndarray, count: int, task_key: str) -> list[int]:
+    """The LIBERO rows trials start from: row k for trial k, except where LIBERO's own row k is
+    unsound (an object falls off the table within one second of zero actions: libero_10-00 row 2
+    drops the cream cheese on the floor), which is replaced by the next sound row after the first
+    `count` (in order), so a scene variant never inherits a defect of the base task's state."""
+    def sound(k: int) -> bool:
+        sim.load_state(env, rows[k])
+        sim.settle(env)
+        lows = [v["lo"][2] for v in sim.body_layout(env).values() if v["kind"] == "object"]
+        return min(lows) >= float(np.median(lows)) - sim.DROP_TOL
+
+    spare = iter(k for k in range(count, len(rows)) if sound(k))
+    out = []
+    for k in range(count):
+        if sound(k):
+            out.append(k)
+        else:
+            replacement = next(spare, None)
+            if replacement is None:
+                raise VProError(f"task {task_key}: fewer than {count} sound LIBERO initial states")
+            out.append(replacement)
+    return out
 
 
 def _site_joints(env) -> dict[str, list[str]]:

@@ -189,7 +189,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
         stages["variant_env"] = time.perf_counter() - t
         t = time.perf_counter()
         try:
-            rows = [trial_state(env, variant, base.rows[k], base.slots, k, base.layouts[k])
+            rows = [trial_state(env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k])
                     for k in range(len(case["trial_seeds"]))]
         finally:
             env.close()
@@ -208,7 +208,9 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
             "build_version": BUILD_VERSION, "summary": variant.summary, "details": dict(variant.details),
             "added": list(variant.added),
             "generated_objects": {o.name: {"template": o.template} for o in variant.generated_objects},
-            "init_states": {"rows": len(rows), "width": int(states.shape[1])},
+            "init_states": {"rows": len(rows), "width": int(states.shape[1]),
+                            # trial k starts from LIBERO's row k; listed only where one was replaced
+                            **({"libero_rows": base.trial_rows} if base.trial_rows != list(range(len(rows))) else {})},
             "files": hashes,
         }
         (tmp / META).write_text(canonical(meta))

@@ -1,7 +1,10 @@
 """Frozen initial states of a scene case: sampled with the case's seeds, settled, accepted.
 
 Trial k of a scene case starts from LIBERO's initial state k of the base task (so it differs from
-the Normal trial k only by the variation), carried into the variant's model by joint name. The
+the Normal trial k only by the variation), carried into the variant's model by joint name. Where
+LIBERO's own state k is unsound (an object falls off the table in one second of zero actions:
+libero_10-00 row 2), the next sound row after the first 10 is used instead and meta.json lists the
+rows (`BaseScene.trial_rows`). The
 generator's placements and joint settings are then applied with the random stream
 `seeding.rng(case_id, k, "scene-init-<attempt>")`, every moved object is lowered onto its support,
 and the scene is settled for one second of zero actions. The state is accepted only if
