@@ -121,3 +121,46 @@ def test_every_scene_case_builds_validates_and_matches_the_catalog(catalog):
     assert not bad, bad[:10]
     diffs, checked, missing = check_built(catalog)
     assert diffs == [] and missing == 0 and checked == sum(len(c["artifacts"]) for c in scene)
+
+
+def test_killed_build_resumes_to_the_recorded_bytes(catalog, tmp_path):
+    """`vpro build` killed with SIGKILL while a case is half-written leaves no case half-built;
+    the same command then finishes the selection, and every file has the sha256 the committed
+    lock file records (built on another machine state, in another process)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    from vpro_assets.scene import lock
+
+    cases = SAMPLE[1:]
+    cmd = [str(Path(sys.executable).with_name("vpro")), "build", "--no-record"]
+    for cid in cases:
+        cmd += ["--select", cid]
+    env = dict(os.environ, VPRO_OUT=str(tmp_path))
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not list((tmp_path / "scene").glob(".tmp-*")):  # a case is being written
+        assert proc.poll() is None and time.monotonic() < deadline, "the build ended before a case was half-written"
+        time.sleep(0.05)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    partial = list((tmp_path / "scene").glob(".tmp-*"))
+    assert partial, "the kill should have left the temporary folder of the case in progress"
+    assert sum((tmp_path / "scene" / cid / "meta.json").is_file() for cid in cases) < len(cases)
+
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert not list((tmp_path / "scene").rglob(".tmp-*")) and not list((tmp_path / "scene").rglob(".old-*"))
+    recorded = lock.load()
+    for cid in cases:
+        meta = json.loads((tmp_path / "scene" / cid / "meta.json").read_text())
+        assert meta["files"] == recorded[cid]["files"], cid
+        for name, digest in meta["files"].items():
+            from vpro_assets.hashing import sha256_file
+
+            assert sha256_file(tmp_path / "scene" / cid / name) == digest

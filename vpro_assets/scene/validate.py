@@ -37,7 +37,8 @@ class Validation:
 def validate_case(case: dict) -> Validation:
     import mujoco
 
-    from .base_scene import base_scene
+    from .. import libero_bridge
+    from ..tasks import get_task
 
     started = time.perf_counter()
     result = Validation(case["id"])
@@ -49,7 +50,9 @@ def validate_case(case: dict) -> Validation:
     problems = result.problems
     text = found["bddl"].read_text()
     try:
-        bddl_doc.check_variant(text, base_scene(case["task"]).bddl, case["id"])
+        task = get_task(case["task"])
+        base_bddl = bddl_doc.read_base(libero_bridge.bddl_path(task.suite, task.name))
+        bddl_doc.check_variant(text, base_bddl, case["id"])
     except Exception as exc:
         problems.append(str(exc))
     for name in found["meta"].get("generated_objects", {}):
@@ -119,25 +122,20 @@ def _validate_group(cases: list[dict]) -> list[Validation]:
 
 
 def validate(cases: list[dict], jobs: int = 1, progress: bool = True) -> Iterator[Validation]:
-    """Validate scene cases, `jobs` processes in parallel (one task's cases per process, so its
-    base scene is measured once); results come as each task's cases finish."""
+    """Validate scene cases, `jobs` processes in parallel; results come as cases finish."""
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     from tqdm import tqdm
 
     from .build import _worker_init
 
-    groups: dict[str, list[dict]] = {}
-    for c in cases:
-        groups.setdefault(c["task"], []).append(c)
     with tqdm(total=len(cases), unit="case", desc="vpro validate", disable=not progress) as bar:
-        if jobs <= 1 or len(groups) <= 1:
+        if jobs <= 1:
             for case in cases:
                 yield from _validate_group([case])
                 bar.update(1)
             return
         with ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init) as pool:
-            for fut in as_completed([pool.submit(_validate_group, g) for g in groups.values()]):
-                done = fut.result()
-                bar.update(len(done))
-                yield from done
+            for fut in as_completed([pool.submit(_validate_group, [c]) for c in cases]):
+                bar.update(1)
+                yield from fut.result()
