@@ -7,7 +7,8 @@ libero_10-00 row 2), the next sound row after the first 10 is used instead and m
 rows (`BaseScene.trial_rows`). The
 generator's placements and joint settings are then applied with the random stream
 `seeding.rng(case_id, k, "scene-init-<attempt>")`, every moved object is lowered onto its support,
-and the scene is settled for one second of zero actions. The state is accepted only if
+and the scene is settled for one second of zero actions (up to EXTRA_SETTLE more while an object
+still moves, e.g. a deformed target rocking on an uneven base). The state is accepted only if
 - every movable object rests (speed below 2 cm/s and 0.5 rad/s),
 - no two scene bodies interpenetrate deeper than 5 mm,
 - no object's lowest point ends more than 5 cm below the surface most objects stand on (it
@@ -34,6 +35,7 @@ from .variant import SceneVariant
 log = logging.getLogger(__name__)
 
 MAX_ATTEMPTS = 6
+EXTRA_SETTLE = 3  # seconds of further settling for objects still moving after the first
 MAX_DRAWS = 200  # position draws per placement and attempt
 SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
 
@@ -163,6 +165,12 @@ def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: di
             reasons.append(f"attempt {attempt}: {exc}")
             continue
         sim.settle(env)
+        # An object still rocking (a deformed target on an uneven base) gets up to EXTRA_SETTLE more
+        # seconds; a state at rest after the first second is never stepped further.
+        for _ in range(EXTRA_SETTLE):
+            if not sim.moving_objects(env):
+                break
+            sim.settle(env)
         problems = _problems(env, bool(raw._check_success()))
         if not problems:
             state = sim.flattened_state(env)
