@@ -70,6 +70,9 @@ class BaseScene:
         return v["lo"], v["hi"]
 
 
+BASE_FIXTURE_SEED = 0
+
+
 @functools.lru_cache(maxsize=8)
 def base_scene(task_key: str) -> BaseScene:
     task = get_task(task_key)
@@ -78,6 +81,9 @@ def base_scene(task_key: str) -> BaseScene:
     rows = libero_init_states(task)
     env = sim.physics_env(str(path))
     try:
+        # Fixtures where LIBERO's reset puts them after seed 0: the measured layouts (and so every
+        # generator's choice) are the same in every process; trials re-place them per trial seed.
+        sim.place_fixtures(env, BASE_FIXTURE_SEED)
         slots = sim.joint_slots(env)
         positions: dict[str, list] = {}
         for k in range(len(rows)):

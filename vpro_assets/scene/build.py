@@ -37,7 +37,7 @@ from .context import GenContext
 
 log = logging.getLogger(__name__)
 
-BUILD_VERSION = 2  # bump when what a build writes changes without a generator's version changing
+BUILD_VERSION = 3  # bump when what a build writes changes without a generator's version changing
 META = "meta.json"
 
 
@@ -189,8 +189,9 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
         stages["variant_env"] = time.perf_counter() - t
         t = time.perf_counter()
         try:
-            rows = [trial_state(env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k])
-                    for k in range(len(case["trial_seeds"]))]
+            rows = [trial_state(env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k],
+                                fixture_seed=seed)
+                    for k, seed in enumerate(case["trial_seeds"])]
         finally:
             env.close()
         stages["settle"] = time.perf_counter() - t

@@ -146,13 +146,15 @@ def drift(env, steps: int = sim.SETTLE_STEPS) -> list[str]:
 
 
 def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: dict, trial: int,
-                base_layout: dict | None = None) -> np.ndarray:
+                base_layout: dict | None = None, fixture_seed: int = 0) -> np.ndarray:
     """One accepted, settled initial state (a LIBERO state row) for `trial` of the case.
-    `base_layout`: instance -> {lo, hi} of its geometry in LIBERO's state of this trial."""
+    `base_layout`: instance -> {lo, hi} of its geometry in LIBERO's state of this trial;
+    `fixture_seed`: the trial's seed, which places the fixtures as the rollout will."""
     added = set(variant.added)
     reasons: list[str] = []
     for attempt in range(MAX_ATTEMPTS):
         rng = seeding.rng(variant.case_id, trial, f"scene-init-{attempt}")
+        sim.place_fixtures(env, fixture_seed)
         row = sim.map_state(base_row, base_slots, env)
         sim.load_state(env, row)
         raw = sim.raw(env)

@@ -34,6 +34,18 @@ def physics_env(bddl_file: str):
     return env
 
 
+def place_fixtures(env, seed: int) -> None:
+    """Place the scene's fixtures (cabinets, stoves, racks: bodies without joints, so not part of
+    a state row) where LIBERO's reset puts them after `env.seed(seed)`, which is what the rollout
+    does before each trial. LIBERO samples fixture positions from numpy's global stream at every
+    reset (up to ~1 cm apart); the build and validation call this with the trial's seed so a
+    frozen state always meets the fixture placement it was settled with, in every process.
+    `_reset_internal` is the part of a reset that samples placements (checked equal to a full
+    hard reset, without recompiling the model); the state loaded afterwards overrides the rest."""
+    env.seed(int(seed))
+    raw(env)._reset_internal()
+
+
 def raw(env):
     """The robosuite env inside LIBERO's wrapper."""
     return env.env

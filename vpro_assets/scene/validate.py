@@ -96,6 +96,7 @@ def validate_case(case: dict) -> Validation:
             problems.append(f"initial states have shape {states.shape}, expected ({len(case['trial_seeds'])}, {width})")
         else:
             for k, row in enumerate(states):
+                sim.place_fixtures(env, case["trial_seeds"][k])  # as the rollout places them
                 sim.load_state(env, row)
                 moved = drift(env)
                 warnings = sim.mujoco_warnings(env)
