@@ -164,3 +164,36 @@ def test_killed_build_resumes_to_the_recorded_bytes(catalog, tmp_path):
             from vpro_assets.hashing import sha256_file
 
             assert sha256_file(tmp_path / "scene" / cid / name) == digest
+
+
+def test_build_places_fixtures_where_the_rollout_env_has_them():
+    """LIBERO places fixtures from numpy's global stream at every reset. The build (and
+    validation) place them per trial with `sim.place_fixtures(env, seed)`; the rollout seeds
+    LIBERO's own render env and resets it. Same seed, same fixture placement; another seed moves
+    the cabinet (so the check is not vacuous)."""
+    import numpy as np
+
+    from vpro_assets import libero_bridge
+    from vpro_assets.env import make_env
+    from vpro_assets.scene import sim
+    from vpro_assets.tasks import get_task
+
+    task = get_task("libero_spatial-04")  # a bowl in the cabinet's drawer
+
+    def fixtures(env):
+        raw = sim.raw(env)
+        return np.array([raw.sim.model.body_pos[raw.sim.model.body_name2id(f.root_body)]
+                         for _, f in sorted(raw.fixtures_dict.items())])
+
+    rollout_env = make_env(task, 32)
+    build_env = sim.physics_env(str(libero_bridge.bddl_path(task.suite, task.name)))
+    try:
+        rollout_env.seed(1234)
+        rollout_env.reset()
+        sim.place_fixtures(build_env, 1234)
+        assert np.array_equal(fixtures(rollout_env), fixtures(build_env))
+        sim.place_fixtures(build_env, 4321)
+        assert np.abs(fixtures(rollout_env) - fixtures(build_env)).max() > 1e-3
+    finally:
+        rollout_env.close()
+        build_env.close()
