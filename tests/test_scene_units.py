@@ -145,3 +145,25 @@ def test_generated_object_tree_hash_covers_folder_and_shared_textures(tmp_path, 
     assert len({first, second, third, tree_sha256(xml)}) == 4
     diffs, checked, missing = lock.check_built(catalog)
     assert (checked, missing) == (1, 0) and len(diffs) == 1 and "case a: objects/vpro_thing/" in diffs[0]
+
+
+def test_clean_partial_removes_only_folders_of_dead_writers(tmp_path, monkeypatch):
+    """A build starts by removing what an interrupted build left; a second build running into the
+    same out/ must not delete the folder the first one is writing (its pid is alive)."""
+    import os
+    import subprocess
+    import sys
+
+    from vpro_assets.scene import build
+
+    monkeypatch.setenv("VPRO_OUT", str(tmp_path))
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True).stdout.strip()
+    alive = str(os.getppid())
+    for name in (f"scene/.tmp-a__b__c-{dead}", f"scene/x/.old-c-{dead}", f"objects/.staging-vpro_x-{dead}",
+                 f"scene/.tmp-a__b__d-{alive}",
+                 f"objects/.tmp-vpro_thing-{alive}"):
+        (tmp_path / name).mkdir(parents=True)
+    build.clean_partial()
+    left = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob(".*-*"))
+    assert left == [f"objects/.tmp-vpro_thing-{alive}", f"scene/.tmp-a__b__d-{alive}"]

@@ -249,11 +249,27 @@ def _build_group(cases: list[dict], force: bool) -> list[CaseResult]:
 
 
 def clean_partial() -> None:
-    """Remove temporary directories an interrupted build left behind."""
+    """Remove temporary directories an interrupted build left behind: those whose writer (the pid
+    that ends their name) is gone, so a second build running into the same out/ is left alone."""
     for root in (scene_root(), objects_root()):
         if root.is_dir():
-            for tmp in list(root.rglob(".tmp-*")) + list(root.rglob(".old-*")):
-                shutil.rmtree(tmp, ignore_errors=True)
+            # .staging-*: the geometry pipeline's folder for a deformed object in progress
+            for tmp in [p for pattern in (".tmp-*", ".old-*", ".staging-*") for p in root.rglob(pattern)]:
+                if not _writer_alive(tmp.name):
+                    shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _writer_alive(name: str) -> bool:
+    pid = name.rsplit("-", 1)[-1]
+    if not pid.isdigit() or int(pid) == os.getpid():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, another user's
+        return True
+    return True
 
 
 def _collect(done: list[CaseResult], results: list[CaseResult], bar) -> None:
