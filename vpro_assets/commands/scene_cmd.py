@@ -78,16 +78,16 @@ def run_build(args) -> int:
 
 
 def run_validate(args) -> int:
+    from tqdm import tqdm
+
     from ..scene.validate import validate
 
     cases = _scene_cases(args)
     bad = 0
     for v in validate(cases, args.jobs):
-        if v.ok:
-            print(f"OK     {v.case_id} ({v.seconds:.1f} s)", flush=True)
-        else:
+        if not v.ok:
             bad += 1
-            for p in v.problems:
-                print(f"FAILED {v.case_id}: {p}", flush=True)
+        for line in [f"OK     {v.case_id} ({v.seconds:.1f} s)"] if v.ok else [f"FAILED {v.case_id}: {p}" for p in v.problems]:
+            tqdm.write(line, file=sys.stdout)  # above the progress bar, not inside it
     print(f"{len(cases) - bad} of {len(cases)} case(s) valid", file=sys.stderr)
     return 1 if bad else 0
