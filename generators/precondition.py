@@ -7,7 +7,9 @@
   trial sets its joint to a value drawn from LIBERO's own closed (or open) range for it.
 - object_pose: the target starts upside down (turned 180 degrees about the world x axis) at its
   LIBERO position of the trial, lowered onto the table and settled, so it rests in another
-  stable pose. The BDDL is the base task's (LIBERO's regions hold no orientation): the frozen
+  stable pose. Where the turned target would touch a neighbour there (an inverted bowl's rim on
+  a plate's rim tips it over and rolls it away), it moves to a spot
+  nearby that is clear by 5 mm (v2). The BDDL is the base task's (LIBERO's regions hold no orientation): the frozen
   initial states carry the pose.
 """
 from __future__ import annotations
@@ -61,7 +63,7 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
     )
 
 
-@register("task_precondition_variation/object_pose")
+@register("task_precondition_variation/object_pose", version=2)
 def object_pose(ctx: GenContext) -> SceneVariant:
     """The target starts upside down at its usual place."""
     target = ctx.task.target
@@ -69,6 +71,7 @@ def object_pose(ctx: GenContext) -> SceneVariant:
         case_id=ctx.case_id, generator="task_precondition_variation/object_pose",
         summary=f"{target} starts upside down",
         objects=list(ctx.base.bddl.objects), fixtures=list(ctx.base.bddl.fixtures), init=ctx.init_with(),
-        placements=[Placement(target, (0.0, 0.0), keep_xy=True, invert=True)],
+        placements=[Placement(target, (0.0, 0.0), margin=0.005, keep_xy=True, invert=True,
+                              clear_of_neighbours=True)],
         details={"target": target, "pose": "inverted"},
     )

@@ -59,6 +59,21 @@ def _clear(xy: np.ndarray, radius: float, others: list[tuple[np.ndarray, np.ndar
     return True
 
 
+def _ring_spot(p, anchor: np.ndarray, rng: np.random.Generator, offset: np.ndarray, radius: float,
+               others: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """An origin xy on a ring around `anchor` whose footprint centre (origin + `offset`: the
+    origin need not be the centre) is clear of `others`. The ring widens by 1 cm every 20 draws
+    when the trial's own layout crowds the spot."""
+    for draw in range(MAX_DRAWS):
+        r = rng.uniform(p.r_min, p.r_max + 0.01 * (draw // 20))
+        theta = rng.uniform(0, 2 * math.pi)
+        xy = anchor + r * np.array([math.cos(theta), math.sin(theta)])
+        if _clear(xy + offset, radius, others, p.margin):
+            return xy
+    raise InitStateError(f"no free spot for {p.instance} within {p.r_max + 0.01 * (MAX_DRAWS // 20):.2f} m of "
+                         f"({anchor[0]:.3f}, {anchor[1]:.3f})")
+
+
 def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str], base_layout: dict) -> None:
     """Apply the variant's placements to the loaded state (positions, poses, heights). An object
     that keeps its LIBERO place (a turned or replaced target) keeps its lowest point where LIBERO's
@@ -85,24 +100,21 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
                   if k != p.instance and k not in pending]
         if p.keep_xy:
             xy = qpos[:2].copy()
+            if p.clear_of_neighbours:
+                # A fixture it stands in (a drawer, a rack) does not count: it stays there.
+                centre = (own["lo"][:2] + own["hi"][:2]) / 2
+                neighbours = [(v["lo"], v["hi"]) for k, v in sim.body_layout(env).items()
+                              if k != p.instance and k not in pending
+                              and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))]
+                if not _clear(centre, radius, neighbours, p.margin):
+                    xy = _ring_spot(p, xy, rng, centre - qpos[:2], radius, neighbours)
         elif p.take_place_of:
             was = base_layout[p.take_place_of]
             # Footprint centre on the other instance's footprint centre (origins need not be centres).
             xy = (was["lo"][:2] + was["hi"][:2]) / 2 - ((own["lo"][:2] + own["hi"][:2]) / 2 - qpos[:2])
         else:
-            anchor = np.asarray(p.anchor, dtype=float)
-            for draw in range(MAX_DRAWS):
-                # The ring widens by 1 cm every 20 draws when the trial's own layout crowds the spot.
-                r = rng.uniform(p.r_min, p.r_max + 0.01 * (draw // 20))
-                theta = rng.uniform(0, 2 * math.pi)
-                xy = anchor + r * np.array([math.cos(theta), math.sin(theta)])
-                # The object's origin need not be its footprint's centre.
-                centre = xy + (own["lo"][:2] + own["hi"][:2]) / 2 - qpos[:2]
-                if _clear(centre, radius, others, p.margin):
-                    break
-            else:
-                raise InitStateError(f"no free spot for {p.instance} within {p.r_max + 0.01 * (MAX_DRAWS // 20):.2f} m of "
-                                     f"({anchor[0]:.3f}, {anchor[1]:.3f})")
+            xy = _ring_spot(p, np.asarray(p.anchor, dtype=float), rng,
+                            (own["lo"][:2] + own["hi"][:2]) / 2 - qpos[:2], radius, others)
         qpos[:2] = xy
         data.set_joint_qpos(joint, qpos)
         raw.sim.forward()

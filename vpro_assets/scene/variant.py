@@ -28,6 +28,9 @@ class Placement:
     margin: float = 0.015
     invert: bool = False  # turned upside down (180 degrees about the world x axis)
     keep_xy: bool = False  # keep LIBERO's xy of this trial (only the pose or height changes)
+    # With keep_xy: where the object would touch a neighbour at LIBERO's xy (a turned bowl's rim
+    # landing on a plate's rim and rolling away), a clear spot on a ring around it instead.
+    clear_of_neighbours: bool = False
     # Stand where this other instance stood in LIBERO's state of the trial (same footprint centre,
     # same lowest point: on the same support, in the same drawer); no clearance check, since that
     # instance is placed elsewhere first.
