@@ -9,7 +9,7 @@
   LIBERO position of the trial, lowered onto the table and settled, so it rests in another
   stable pose. Where the turned target would touch a neighbour there (an inverted bowl's rim on
   a plate's rim tips it over and rolls it away), it moves to a spot
-  nearby that is clear by 5 mm (v2). The BDDL is the base task's (LIBERO's regions hold no orientation): the frozen
+  nearby that is clear by 5 mm where there is one (v2). The BDDL is the base task's (LIBERO's regions hold no orientation): the frozen
   initial states carry the pose.
 """
 from __future__ import annotations

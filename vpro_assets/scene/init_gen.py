@@ -38,6 +38,7 @@ MAX_ATTEMPTS = 6
 EXTRA_SETTLE = 3  # seconds of further settling for objects still moving after the first
 MAX_DRAWS = 200  # position draws per placement and attempt
 SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
+SUPPORT_TOL = 0.005  # m: a body whose top is at most this far above an object's bottom supports it
 
 
 class InitStateError(VProError):
@@ -100,14 +101,18 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
                   if k != p.instance and k not in pending]
         if p.keep_xy:
             xy = qpos[:2].copy()
-            if p.clear_of_neighbours:
-                # A fixture it stands in (a drawer, a rack) does not count: it stays there.
+            if p.clear_of_neighbours and p.instance in base_layout:
+                # What it stands on (a ramekin, a drawer, a rack) does not count: it stays there.
                 centre = (own["lo"][:2] + own["hi"][:2]) / 2
+                floor = base_layout[p.instance]["lo"][2] + SUPPORT_TOL
                 neighbours = [(v["lo"], v["hi"]) for k, v in sim.body_layout(env).items()
-                              if k != p.instance and k not in pending
+                              if k != p.instance and k not in pending and v["hi"][2] > floor
                               and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))]
                 if not _clear(centre, radius, neighbours, p.margin):
-                    xy = _ring_spot(p, xy, rng, centre - qpos[:2], radius, neighbours)
+                    try:
+                        xy = _ring_spot(p, xy, rng, centre - qpos[:2], radius, neighbours)
+                    except InitStateError:
+                        pass  # no room nearby in a crowded layout: LIBERO's spot, if it settles
         elif p.take_place_of:
             was = base_layout[p.take_place_of]
             # Footprint centre on the other instance's footprint centre (origins need not be centres).
