@@ -8,9 +8,9 @@
 - object_pose: the target starts upside down (turned 180 degrees about the world x axis) at its
   LIBERO position of the trial, lowered onto the table and settled, so it rests in another
   stable pose. Where the turned target would touch a neighbour there (an inverted bowl's rim on
-  a plate's rim tips it over and rolls it away), it moves to a spot
-  nearby that is clear by 5 mm where there is one (v2). The BDDL is the base task's (LIBERO's regions hold no orientation): the frozen
-  initial states carry the pose.
+  a plate's rim tips it over and rolls it away), it starts at a spot nearby clear by 5 mm, if
+  there is one (v2). The BDDL is the base task's (LIBERO's regions hold no orientation): the
+  frozen initial states carry the pose.
 """
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
 
 @register("task_precondition_variation/object_pose", version=2)
 def object_pose(ctx: GenContext) -> SceneVariant:
-    """The target starts upside down at its usual place."""
+    """The target starts upside down at its usual place (or next to it, clear of its neighbours)."""
     target = ctx.task.target
     return SceneVariant(
         case_id=ctx.case_id, generator="task_precondition_variation/object_pose",
