@@ -85,9 +85,9 @@ def run_validate(args) -> int:
     cases = _scene_cases(args)
     bad = 0
     for v in validate(cases, args.jobs):
-        if not v.ok:
-            bad += 1
-        for line in [f"OK     {v.case_id} ({v.seconds:.1f} s)"] if v.ok else [f"FAILED {v.case_id}: {p}" for p in v.problems]:
+        bad += not v.ok
+        lines = [f"OK     {v.case_id} ({v.seconds:.1f} s)"] if v.ok else [f"FAILED {v.case_id}: {p}" for p in v.problems]
+        for line in lines:
             tqdm.write(line, file=sys.stdout)  # above the progress bar, not inside it
     print(f"{len(cases) - bad} of {len(cases)} case(s) valid", file=sys.stderr)
     return 1 if bad else 0

@@ -94,32 +94,31 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
             qpos[3:] = quat_mul(INVERT, qpos[3:])
         data.set_joint_qpos(joint, qpos)
         raw.sim.forward()
-        own = sim.body_layout(env)[p.instance]
+        now = sim.body_layout(env)
+        own = now[p.instance]
         # Half its longer side plus 10%, as the spot planning measures it (PoolObject.footprint_radius).
         radius = 0.55 * max(own["hi"][0] - own["lo"][0], own["hi"][1] - own["lo"][1])
-        others = [(v["lo"], v["hi"]) for k, v in sim.body_layout(env).items()
-                  if k != p.instance and k not in pending]
+        centre = (own["lo"][:2] + own["hi"][:2]) / 2
+        offset = centre - qpos[:2]  # the object's origin need not be its footprint's centre
+        others = {k: v for k, v in now.items() if k != p.instance and k not in pending}
         if p.keep_xy:
             xy = qpos[:2].copy()
             if p.clear_of_neighbours and p.instance in base_layout:
                 # What it stands on (a ramekin, a drawer, a rack) does not count: it stays there.
-                centre = (own["lo"][:2] + own["hi"][:2]) / 2
                 floor = base_layout[p.instance]["lo"][2] + SUPPORT_TOL
-                neighbours = [(v["lo"], v["hi"]) for k, v in sim.body_layout(env).items()
-                              if k != p.instance and k not in pending and v["hi"][2] > floor
+                neighbours = [(v["lo"], v["hi"]) for v in others.values() if v["hi"][2] > floor
                               and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))]
                 if not _clear(centre, radius, neighbours, p.margin):
                     try:
-                        xy = _ring_spot(p, xy, rng, centre - qpos[:2], radius, neighbours)
+                        xy = _ring_spot(p, xy, rng, offset, radius, neighbours)
                     except InitStateError:
                         pass  # no room nearby in a crowded layout: LIBERO's spot, if it settles
         elif p.take_place_of:
             was = base_layout[p.take_place_of]
-            # Footprint centre on the other instance's footprint centre (origins need not be centres).
-            xy = (was["lo"][:2] + was["hi"][:2]) / 2 - ((own["lo"][:2] + own["hi"][:2]) / 2 - qpos[:2])
+            xy = (was["lo"][:2] + was["hi"][:2]) / 2 - offset  # footprint centre on the other's
         else:
-            xy = _ring_spot(p, np.asarray(p.anchor, dtype=float), rng,
-                            (own["lo"][:2] + own["hi"][:2]) / 2 - qpos[:2], radius, others)
+            xy = _ring_spot(p, np.asarray(p.anchor, dtype=float), rng, offset, radius,
+                            [(v["lo"], v["hi"]) for v in others.values()])
         qpos[:2] = xy
         data.set_joint_qpos(joint, qpos)
         raw.sim.forward()
