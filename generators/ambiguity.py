@@ -18,7 +18,7 @@ from vpro_assets.scene.variant import SceneVariant
 from vpro_assets.scene.bddl_doc import Region
 from vpro_assets.scene.visual_only import articulation_ghost, ghost_object
 
-from . import register
+from vpro_assets.scene.plugins import register
 
 GHOST_REGION_HALF = 0.001  # m: the copy is a fixture at a fixed spot (LIBERO jitters within this)
 SURFACE_GAP = 0.001  # m between the table and the copy's lowest point
@@ -51,7 +51,7 @@ FIXTURE_REGION_HALF = 0.0005  # m
 @register("visual_state_ambiguity/receptacle_openness")
 def receptacle_openness(ctx: GenContext) -> SceneVariant:
     """The receptacle's drawer or door is also drawn, visual-only, in the other open/closed state."""
-    from .precondition import openness_flip
+    from generators.precondition import openness_flip
 
     replace, joints, new_state = openness_flip(ctx)
     fixture = ctx.task.receptacle

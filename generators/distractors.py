@@ -38,11 +38,12 @@ import math
 
 import numpy as np
 
+from vpro_assets.core.errors import GeneratorError
 from vpro_assets.scene import pool as pool_mod
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
-from . import register
+from vpro_assets.scene.plugins import register
 
 JITTER = 0.015
 ON_TABLE_TOL = 0.01  # m: a target whose lowest point is further from the table surface rests on something
@@ -118,8 +119,6 @@ def _variant(ctx: GenContext, rule: str, category: str, spot: np.ndarray, summar
 
 def _near_target(ctx: GenContext, rule: str):
     """The best candidate that has a free spot near the target, and that spot."""
-    from generators import GeneratorError
-
     errors = []
     for chosen in choose(ctx, rule):
         try:
@@ -223,8 +222,6 @@ def trajectory_obstacle(ctx: GenContext) -> SceneVariant:
             break
     placement, path_name = None, "carrying"
     if best is None:  # the path is too short for an object between: the free spot nearest its midpoint
-        from generators import GeneratorError
-
         try:
             best = ctx.free_spot(mid, radius, radii=(0.04, 0.07, 0.10, 0.13, 0.16, 0.20))
         except GeneratorError:

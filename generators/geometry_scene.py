@@ -1,19 +1,19 @@
 """Target Geometry Variation, the scene part: the task with its target replaced by the deformed
-object of the geometry pipeline (`generators.target_geometry`, which owns meshes, hulls and
+object of the geometry pipeline (`vpro_assets.objects.deformed`, which owns meshes, hulls and
 exports). The target keeps its instance name, so the language and goal are unchanged; only its
 category in the BDDL becomes the registered deformed object. Trials start from LIBERO's initial
 state of the same index with the deformed target lowered onto the table at the same place."""
 from __future__ import annotations
 
-from vpro_assets import taxonomy as tx
+from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
-from . import register
+from vpro_assets.scene.plugins import register
 
 
 def _deformed(category: str, deformation: str, severity: int) -> GeneratedObject:
-    from . import target_geometry as tg
+    from vpro_assets.objects import deformed as tg
 
     return GeneratedObject(
         name=tg.object_name(category, deformation, severity),

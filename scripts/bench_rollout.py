@@ -20,7 +20,8 @@ from pathlib import Path
 
 
 def bare_loop(task, state, steps: int, resolution: int) -> float:
-    from vpro_assets.env import NOOP_ACTION, make_env
+    from vpro_assets.libero.env import NOOP_ACTION
+    from vpro_assets.libero.env import make_env
 
     env = make_env(task, resolution)
     try:
@@ -56,7 +57,7 @@ def runner_loop_timed(case, steps: int, resolution: int) -> tuple[float, float]:
     it, per-step time spent inside LIBERO's env.step; the difference is the runner's own cost."""
     from vpro_assets.rollout import episode as ep
     from vpro_assets.rollout.case_env import release_cached_envs
-    from vpro_assets.rollout.reference import NoopPolicy
+    from vpro_assets.rollout.policies.reference import NoopPolicy
 
     stamps = {}
     original = ep.env_for_case
@@ -106,10 +107,11 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
 
-    from vpro_assets import paths
-    from vpro_assets.catalog import find_case, load_catalog
-    from vpro_assets.env import libero_init_states
-    from vpro_assets.tasks import get_task
+    from vpro_assets.core import paths
+    from vpro_assets.benchmark.catalog import find_case
+    from vpro_assets.benchmark.catalog import load_catalog
+    from vpro_assets.libero.env import libero_init_states
+    from vpro_assets.libero.tasks import get_task
 
     catalog = load_catalog(paths.catalog_path())
     case = find_case(catalog, "libero_spatial-00/normal")

@@ -18,10 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
-from generators.target_geometry import REFINE_FRACTION, UP_AXES, generate_deformed_object, geometry_setting, libero_object_xml
-from vpro_assets import deform
-from vpro_assets.deform import DEFORMATIONS
-from vpro_assets.mjcf_object import drop_test
+from vpro_assets.objects.deformed import REFINE_FRACTION
+from vpro_assets.objects.deformed import UP_AXES
+from vpro_assets.objects.deformed import generate_deformed_object
+from vpro_assets.objects.deformed import geometry_setting
+from vpro_assets.objects.deformed import libero_object_xml
+from vpro_assets.geometry import deform
+from vpro_assets.geometry.deform import DEFORMATIONS
+from vpro_assets.objects.mjcf import drop_test
 
 
 def main() -> None:
@@ -69,8 +73,10 @@ def main() -> None:
 
 def shape_measures(args) -> None:
     """Volume, extents and displacement of every deformed solid, by the generator's own steps."""
-    from vpro_assets.meshes import load_libero_object
-    from vpro_assets.solid import manifold_arrays, repair_part, union
+    from vpro_assets.geometry.meshes import load_libero_object
+    from vpro_assets.geometry.solid import manifold_arrays
+    from vpro_assets.geometry.solid import repair_part
+    from vpro_assets.geometry.solid import union
 
     out = args.results.with_suffix(".shape.jsonl")
     for category in args.category or sorted(UP_AXES):
@@ -124,7 +130,7 @@ def summary(results: Path, shapes: Path) -> str:
     warm = [r for r in rows if r["cached"]]
     lines = ["## Target geometry generation (`generators/target_geometry.py`)", "",
              "Measured with `scripts/geometry_benchmark.py` on this machine (2 cores shared with other jobs, "
-             "so times are upper bounds), default coacd search (`vpro_assets.convex.CoacdParams`).", ""]
+             "so times are upper bounds), default coacd search (`vpro_assets.geometry.convex.CoacdParams`).", ""]
     if cold:
         lines += [f"Cold generation of {len(cold)} objects ({len({r['category'] for r in cold})} categories); "
                   "seconds per object:", "", "| stage | median | mean | max | total |", "|---|---:|---:|---:|---:|"]
@@ -178,7 +184,7 @@ def summary(results: Path, shapes: Path) -> str:
     if errors:
         lines += ["", f"Failures: {len(errors)}: " + "; ".join(f"{r['category']} {r['deformation']} "
                                                               f"s{r['severity']}: {r['error']}" for r in errors)]
-    lines += ["", "Stated bands, checked by `tests/test_geometry_objects.py`: solid volume within 0.75-1.30 of the "
+    lines += ["", "Stated bands, checked by `tests/objects/test_deformed_objects.py`: solid volume within 0.75-1.30 of the "
               "original closed solid, height unchanged (every map moves points horizontally), horizontal extents "
               "within 0.70-1.80 for the default-run target; 1 to 64 hulls per object (coacd merges down to 48; "
               "cutting the supporting hulls into quadrants adds a few). Hull/solid volume above 1 is the convex hulls' "

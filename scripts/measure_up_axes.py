@@ -16,8 +16,9 @@ import numpy as np
 def main() -> None:
     import mujoco
 
-    from vpro_assets import libero_bridge, paths
-    from vpro_assets.tasks import get_task
+    from vpro_assets.libero import bridge as libero_bridge
+    from vpro_assets.core import paths
+    from vpro_assets.libero.tasks import get_task
 
     catalog = json.loads(paths.catalog_path().read_text())
     tasks = {}

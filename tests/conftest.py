@@ -12,14 +12,14 @@ os.environ.setdefault("VPRO_LIBERO_CONFIG_DIR", tempfile.mkdtemp(prefix="vpro-li
 
 @pytest.fixture(scope="session")
 def tasks():
-    from vpro_assets.tasks import load_tasks
+    from vpro_assets.libero.tasks import load_tasks
 
     return load_tasks()
 
 
 @pytest.fixture(scope="session")
 def built_catalog():
-    from vpro_assets.catalog import build_catalog
+    from vpro_assets.benchmark.catalog import build_catalog
 
     return build_catalog()
 
@@ -32,8 +32,9 @@ BUILT_SCENE_CASE = "libero_spatial-00/task_relevant_distractors/same_color-v1"
 @pytest.fixture(scope="session")
 def scene_out(tmp_path_factory):
     """An out/ folder (VPRO_OUT) shared by the session, with BUILT_SCENE_CASE built in it."""
-    from vpro_assets import paths
-    from vpro_assets.catalog import find_case, load_catalog
+    from vpro_assets.core import paths
+    from vpro_assets.benchmark.catalog import find_case
+    from vpro_assets.benchmark.catalog import load_catalog
     from vpro_assets.scene import build
 
     d = tmp_path_factory.mktemp("vpro-out")

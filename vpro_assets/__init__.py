@@ -7,7 +7,7 @@ __version__ = "0.1.0"
 
 
 def wrap(env, case):
-    """See `vpro_assets.fork_env`."""
-    from .fork_env import wrap as _wrap
+    """See `vpro_assets.packs.wrap`."""
+    from vpro_assets.packs.wrap import wrap as _wrap
 
     return _wrap(env, case)

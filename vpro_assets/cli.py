@@ -9,7 +9,7 @@ import logging
 import os
 import sys
 
-from .errors import VProError
+from vpro_assets.core.errors import VProError
 
 # Modules that contribute subcommands, in the order `vpro --help` lists them.
 COMMAND_MODULES = (

@@ -4,10 +4,11 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .. import paths
-from ..catalog import load_catalog
-from ..errors import VProError
-from ..selection import describe, select_cases
+from vpro_assets.core import paths
+from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.core.errors import VProError
+from vpro_assets.benchmark.selection import describe
+from vpro_assets.benchmark.selection import select_cases
 
 
 def add_parser(sub) -> None:
@@ -48,7 +49,7 @@ def add_parser(sub) -> None:
 
 
 def parse_max_steps(values: list[str]) -> tuple[int | None, dict]:
-    from ..rollout.episode import MAX_STEPS
+    from vpro_assets.rollout.episode import MAX_STEPS
 
     override, per_suite = None, dict(MAX_STEPS)
     for value in values:
@@ -65,9 +66,9 @@ def parse_max_steps(values: list[str]) -> tuple[int | None, dict]:
 
 
 def run_eval_cmd(args) -> int:
-    from ..rollout.episode import EpisodeSettings
-    from ..rollout.progress import Progress
-    from ..rollout.runner import run_eval
+    from vpro_assets.rollout.episode import EpisodeSettings
+    from vpro_assets.rollout.progress import Progress
+    from vpro_assets.rollout.runner import run_eval
 
     if args.workers < 1:
         raise VProError(f"--workers must be at least 1, got {args.workers}")

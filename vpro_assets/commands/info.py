@@ -5,8 +5,9 @@ import json
 import sys
 from pathlib import Path
 
-from .. import taxonomy as tx
-from ..tasks import get_task, load_tasks
+from vpro_assets.benchmark import taxonomy as tx
+from vpro_assets.libero.tasks import get_task
+from vpro_assets.libero.tasks import load_tasks
 
 
 def add_parser(sub) -> None:
@@ -33,8 +34,8 @@ def run_tasks(args) -> int:
         return 0
     tasks = [t for t in load_tasks() if not args.suite or t.suite == args.suite]
     if args.suite and not tasks:
-        from ..errors import UnknownIdError
-        from ..libero_bridge import SUITES
+        from vpro_assets.core.errors import UnknownIdError
+        from vpro_assets.libero.bridge import SUITES
 
         raise UnknownIdError("suite", args.suite, SUITES)
     if args.json:
@@ -48,7 +49,7 @@ def run_tasks(args) -> int:
 
 def run_taxonomy(args) -> int:
     if args.doc:
-        from ..taxonomy_doc import write_taxonomy_doc
+        from vpro_assets.benchmark.taxonomy_doc import write_taxonomy_doc
 
         write_taxonomy_doc(args.doc)
         print(f"wrote {args.doc}", file=sys.stderr)

@@ -5,11 +5,12 @@ import shutil
 import sys
 from pathlib import Path
 
-from .. import paths
-from ..catalog import load_catalog
-from ..packs.manifest import PackError
-from ..packs.writer import open_pack, verify_pack, write_pack
-from ..selection import describe, select_cases
+from vpro_assets.core import paths
+from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.packs.manifest import PackError
+from vpro_assets.packs.writer import open_pack, verify_pack, write_pack
+from vpro_assets.benchmark.selection import describe
+from vpro_assets.benchmark.selection import select_cases
 
 
 def add_parser(sub) -> None:

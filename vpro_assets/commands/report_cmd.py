@@ -20,7 +20,7 @@ def add_parser(sub) -> None:
 
 
 def run_report(args) -> int:
-    from ..rollout.report import write_report
+    from vpro_assets.report.write import write_report
 
     written = write_report(args.results, args.out, args.run_ids or None, plots=not args.no_plots)
     files = [written["markdown"], written["latex"], *written["plots"]]

@@ -6,10 +6,11 @@ import sys
 import time
 from pathlib import Path
 
-from .. import paths
-from ..atomic import write_text_atomic
-from ..catalog import load_catalog
-from ..selection import describe, select_cases
+from vpro_assets.core import paths
+from vpro_assets.core.atomic import write_text_atomic
+from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.benchmark.selection import describe
+from vpro_assets.benchmark.selection import select_cases
 
 SELECT_HELP = ("case id, setting id, category, dimension, suite or task (repeatable; several are a union; "
                "none means every case). Only scene cases have artifacts; others are skipped.")
@@ -47,8 +48,8 @@ def _scene_cases(args) -> list[dict]:
 
 
 def run_build(args) -> int:
-    from ..scene import lock
-    from ..scene.build import build
+    from vpro_assets.benchmark import lock
+    from vpro_assets.scene.build import build
 
     cases = _scene_cases(args)
     print(f"building {describe(cases)} into {paths.out_dir() / 'scene'} with {args.jobs} job(s)", file=sys.stderr)
@@ -80,7 +81,7 @@ def run_build(args) -> int:
 def run_validate(args) -> int:
     from tqdm import tqdm
 
-    from ..scene.validate import validate
+    from vpro_assets.scene.validate import validate
 
     cases = _scene_cases(args)
     bad = 0

@@ -10,8 +10,8 @@ import io
 import tarfile
 from pathlib import Path
 
-from ..atomic import write_bytes_atomic
-from .manifest import PackError
+from vpro_assets.core.atomic import write_bytes_atomic
+from vpro_assets.packs.manifest import PackError
 
 ARCHIVE_SUFFIX = ".tar.gz"
 

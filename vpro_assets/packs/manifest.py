@@ -10,8 +10,8 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..hashing import sha256_file  # noqa: F401  (part of this module's interface)
-from ..errors import VProError
+from vpro_assets.core.hashing import sha256_file
+from vpro_assets.core.errors import VProError
 
 MANIFEST = "manifest.json"
 PACK_FORMAT = "vpro-pack"

@@ -23,12 +23,15 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from .. import __version__, libero_bridge, paths
-from ..catalog import library_versions
-from ..taxonomy import SCENE
-from ..tasks import libero_instruction
-from . import archive, manifest as mf
-from .manifest import PackError
+from vpro_assets import __version__
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.core import paths
+from vpro_assets.benchmark.catalog import library_versions
+from vpro_assets.benchmark.taxonomy import SCENE
+from vpro_assets.libero.tasks import libero_instruction
+from vpro_assets.packs import archive
+from vpro_assets.packs import manifest as mf
+from vpro_assets.packs.manifest import PackError
 
 FORK_MODULE = "vpro_libero_fork.py"
 README = """# LIBERO-VPro pack
@@ -65,8 +68,8 @@ def _case_sources(case: dict) -> dict:
 
 def _scene_sources(case: dict) -> dict:
     """Files of a built scene case, read from its build record (nothing is registered or built)."""
-    from ..object_registry import content_sha256
-    from ..scene.build import META, case_dir, objects_root
+    from vpro_assets.objects.registry import content_sha256
+    from vpro_assets.scene.build import META, case_dir, objects_root
 
     meta_path = case_dir(case["id"]) / META
     if not meta_path.is_file():
@@ -87,7 +90,7 @@ def _scene_sources(case: dict) -> dict:
 def _copy_object(obj: dict, assets: Path) -> None:
     """The object's files (`object_registry.object_files`: its folder plus shared textures it
     references) at the same relative places under assets/ as under out/objects/."""
-    from ..object_registry import object_files
+    from vpro_assets.objects.registry import object_files
 
     src_root = Path(obj["dir"]).resolve().parent
     for path in object_files(Path(obj["dir"]) / obj["xml"]):
@@ -132,7 +135,7 @@ def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> Non
         suites.setdefault(suite, []).append({"name": name, "language": language, "case": case["id"]})
     (root / "taxonomy.json").write_text(json.dumps(
         {k: catalog[k] for k in ("dimensions", "categories", "settings")}, sort_keys=True, indent=1) + "\n")
-    (root / FORK_MODULE).write_bytes((Path(__file__).resolve().parent.parent / "libero_fork.py").read_bytes())
+    (root / FORK_MODULE).write_bytes((Path(__file__).resolve().parent / "fork_runtime.py").read_bytes())
     (root / "README.md").write_text(README.format(suites=", ".join(f"`{s}`" for s in sorted(suites))))
     _check_no_absolute_paths(root)
     files = mf.file_entries(root)

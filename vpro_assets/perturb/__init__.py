@@ -32,10 +32,10 @@ random draw comes from `seeding.rng(case_id, trial, component)`; the physics is 
 (masks are extra segmentation renders; contradictions edit one camera's `MjvScene` only);
 staleness, view unavailability, corruption and prediction feedback render nothing extra.
 """
-from .pipeline import FAMILIES, ObservationPipeline, build_pipeline, register
-from .observer import CaseObserver, wrap_case_env
-from .prediction import EchoPredictor, FramePredictingPolicy, PolicyOutput
-from .wrapper import PerturbedEnv
+from vpro_assets.perturb.pipeline import FAMILIES, ObservationPipeline, build_pipeline, register
+from vpro_assets.perturb.observer import CaseObserver, wrap_case_env
+from vpro_assets.perturb.prediction import EchoPredictor, FramePredictingPolicy, PolicyOutput
+from vpro_assets.perturb.wrapper import PerturbedEnv
 
 __all__ = ["CaseObserver", "wrap_case_env", "FAMILIES", "ObservationPipeline", "build_pipeline", "register", "PerturbedEnv", "PolicyOutput",
            "FramePredictingPolicy", "EchoPredictor"]

@@ -14,12 +14,12 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from ..errors import InvalidParameterError
-from ..seeding import rng
-from ..tasks import TaskRecord
-from .entities import EntityIndex
-from .phases import PhaseState
-from .rendering import SceneEdit, render_geom_ids
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.core.seeding import rng
+from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.perturb.entities import EntityIndex
+from vpro_assets.perturb.phases import PhaseState
+from vpro_assets.perturb.rendering import SceneEdit, render_geom_ids
 
 
 @dataclass(frozen=True)

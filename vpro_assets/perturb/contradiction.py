@@ -22,11 +22,12 @@ from typing import Mapping
 import mujoco
 import numpy as np
 
-from ..errors import InvalidParameterError
-from ..taxonomy import CONTRADICTION_OFFSET_M, VIEWS
-from . import scene_edits as se
-from .base import Episode, Perturbation, param
-from .entities import Entity, EntityIndex
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.benchmark.taxonomy import CONTRADICTION_OFFSET_M
+from vpro_assets.benchmark.taxonomy import VIEWS
+from vpro_assets.perturb import scene_edits as se
+from vpro_assets.perturb.base import Episode, Perturbation, param
+from vpro_assets.perturb.entities import Entity, EntityIndex
 
 EDITS = {"quantity": "duplicate_target", "existence": "hide_target", "position": "displace_target",
          "state": "other_state"}

@@ -12,12 +12,12 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import InvalidParameterError
-from ..taxonomy import PHASES
-from .base import Episode, Perturbation, Step, param
-from .imageops import add_noise, blackout
-from .masking import _cameras
-from .schedules import BurstSchedule
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.benchmark.taxonomy import PHASES
+from vpro_assets.perturb.base import Episode, Perturbation, Step, param
+from vpro_assets.perturb.imageops import add_noise, blackout
+from vpro_assets.perturb.masking import _cameras
+from vpro_assets.perturb.schedules import BurstSchedule
 
 
 class Corruption(Perturbation):

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..errors import VProError
-from ..tasks import TaskRecord
+from vpro_assets.core.errors import VProError
+from vpro_assets.libero.tasks import TaskRecord
 
 GRIPPER_PREFIX = "gripper0_"
 GRIP_SITE = "gripper0_grip_site"

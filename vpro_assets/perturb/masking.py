@@ -18,11 +18,12 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import InvalidParameterError
-from ..taxonomy import MASK_SCHEDULES, VIEWS
-from .base import Episode, Perturbation, Step, param
-from .imageops import meeting_region, occlude, partial_mask, scaled_px
-from .schedules import mask_active
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.benchmark.taxonomy import MASK_SCHEDULES
+from vpro_assets.benchmark.taxonomy import VIEWS
+from vpro_assets.perturb.base import Episode, Perturbation, Step, param
+from vpro_assets.perturb.imageops import meeting_region, occlude, partial_mask, scaled_px
+from vpro_assets.perturb.schedules import mask_active
 
 REGIONS = ("gripper", "gripper_object_contact", "placement_contact")
 

@@ -22,11 +22,11 @@ from typing import Mapping
 
 import numpy as np
 
-from ..env import CAMERAS
-from ..errors import InvalidParameterError
-from ..tasks import get_task
-from .pipeline import ObservationPipeline, build_pipeline, image_key
-from .rendering import render_rgb
+from vpro_assets.libero.env import CAMERAS
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.libero.tasks import get_task
+from vpro_assets.perturb.pipeline import ObservationPipeline, build_pipeline, image_key
+from vpro_assets.perturb.rendering import render_rgb
 
 
 class CaseObserver:

@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..taxonomy import PHASES
-from .entities import EntityIndex
+from vpro_assets.benchmark.taxonomy import PHASES
+from vpro_assets.perturb.entities import EntityIndex
 
 PLACED = "placed"
 ALL_PHASES = PHASES + (PLACED,)

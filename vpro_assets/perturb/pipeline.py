@@ -14,20 +14,21 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .. import taxonomy as tx
-from ..env import CAMERAS
-from ..errors import InvalidParameterError, VProError
-from ..tasks import TaskRecord
-from .base import Builder, Episode, MaskSource, Perturbation, Step
-from .contradiction import Contradiction
-from .corruption import Corruption
-from .entities import EntityIndex
-from .masking import CueMasking, EntityMasking
-from .phases import PhaseTracker
-from .prediction import PredictionFeedback
-from .rendering import RenderHook
-from .staleness import Staleness
-from .views import ViewUnavailability
+from vpro_assets.benchmark import taxonomy as tx
+from vpro_assets.libero.env import CAMERAS
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.core.errors import VProError
+from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.perturb.base import Builder, Episode, MaskSource, Perturbation, Step
+from vpro_assets.perturb.contradiction import Contradiction
+from vpro_assets.perturb.corruption import Corruption
+from vpro_assets.perturb.entities import EntityIndex
+from vpro_assets.perturb.masking import CueMasking, EntityMasking
+from vpro_assets.perturb.phases import PhaseTracker
+from vpro_assets.perturb.prediction import PredictionFeedback
+from vpro_assets.perturb.rendering import RenderHook
+from vpro_assets.perturb.staleness import Staleness
+from vpro_assets.perturb.views import ViewUnavailability
 
 log = logging.getLogger(__name__)
 

@@ -20,8 +20,8 @@ from typing import Callable, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
-from ..errors import InvalidParameterError
-from .base import Episode, Perturbation, Step, param
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.perturb.base import Episode, Perturbation, Step, param
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ SceneEdit = Callable[[mujoco.MjvScene], None]
 def render_context(sim):
     ctx = getattr(sim, "_render_context_offscreen", None)
     if ctx is None:
-        from ..errors import VProError
+        from vpro_assets.core.errors import VProError
 
         raise VProError("the env has no offscreen render context; build it with has_offscreen_renderer=True")
     return ctx

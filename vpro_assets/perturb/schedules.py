@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidParameterError
-from ..taxonomy import MASK_SCHEDULES
-from .phases import PLACED, PhaseState
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.benchmark.taxonomy import MASK_SCHEDULES
+from vpro_assets.perturb.phases import PLACED, PhaseState
 
 PLACEMENT_PHASES = ("pre_placement", PLACED)
 

@@ -11,9 +11,9 @@ from typing import Mapping
 
 import numpy as np
 
-from ..taxonomy import VIEWS
-from .base import Episode, Perturbation, Step, param
-from .schedules import stale_frames_needed, stale_source_step
+from vpro_assets.benchmark.taxonomy import VIEWS
+from vpro_assets.perturb.base import Episode, Perturbation, Step, param
+from vpro_assets.perturb.schedules import stale_frames_needed, stale_source_step
 
 
 class Staleness(Perturbation):

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from typing import Mapping
 
-from ..taxonomy import VIEWS
-from .base import Perturbation, Step, param
+from vpro_assets.benchmark.taxonomy import VIEWS
+from vpro_assets.perturb.base import Perturbation, Step, param
 
 REPLACEMENTS = ("single_view", "constant", "duplicate")
 

@@ -21,9 +21,9 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import InvalidParameterError
-from ..tasks import TaskRecord
-from .pipeline import ObservationPipeline, build_pipeline
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.perturb.pipeline import ObservationPipeline, build_pipeline
 
 
 class PerturbedEnv:

@@ -21,10 +21,10 @@ import queue
 import signal
 from typing import Iterable, Iterator, Optional
 
-from ..errors import VProError
-from .case_env import release_cached_envs
-from .jobs import base_row, execute_job
-from .store import utc_now
+from vpro_assets.core.errors import VProError
+from vpro_assets.rollout.case_env import release_cached_envs
+from vpro_assets.rollout.jobs import base_row, execute_job
+from vpro_assets.rollout.store import utc_now
 
 log = logging.getLogger(__name__)
 

@@ -27,13 +27,15 @@ from typing import Any, Mapping, Optional
 
 import numpy as np
 
-from ..hashing import sha256_file
-from .. import libero_bridge
-from ..env import CAMERAS, libero_init_states, make_env
-from ..errors import VProError
-from ..init_states import read_init_states
-from ..tasks import get_task
-from .policy import SimulatorError
+from vpro_assets.core.hashing import sha256_file
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.env import CAMERAS
+from vpro_assets.libero.env import libero_init_states
+from vpro_assets.libero.env import make_env
+from vpro_assets.core.errors import VProError
+from vpro_assets.libero.init_states import read_init_states
+from vpro_assets.libero.tasks import get_task
+from vpro_assets.rollout.policies.base import SimulatorError
 
 log = logging.getLogger(__name__)
 
@@ -72,7 +74,7 @@ def scene_artifacts(case: Mapping) -> dict:
     if importlib.util.find_spec("vpro_assets.scene") is None:
         raise CaseUnavailableError(f"case {case['id']}: scene not built; run vpro build "
                                    "(the scene builder, vpro_assets.scene, is not in this checkout)")
-    from ..scene.build import built_case
+    from vpro_assets.scene.build import built_case
 
     try:
         found = dict(built_case(case["id"]))
@@ -93,8 +95,8 @@ def _phase_tracker(sim, task):
     if importlib.util.find_spec("vpro_assets.perturb.phases") is None:
         return None
     try:
-        from ..perturb.entities import EntityIndex
-        from ..perturb.phases import PhaseTracker
+        from vpro_assets.perturb.entities import EntityIndex
+        from vpro_assets.perturb.phases import PhaseTracker
 
         tracker = PhaseTracker(EntityIndex(sim, task))
         tracker.reset()

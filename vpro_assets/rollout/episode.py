@@ -17,11 +17,15 @@ from typing import Optional
 
 import numpy as np
 
-from ..env import CAMERAS, NOOP_ACTION
-from ..tasks import get_task
-from .case_env import CaseEnv, CaseUnavailableError, check_available, env_for_case
-from .contacts import ContactTracker
-from .policy import EpisodeInfo, InfrastructureError, Observation, as_output
+from vpro_assets.libero.env import CAMERAS
+from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.libero.tasks import get_task
+from vpro_assets.rollout.case_env import CaseEnv, CaseUnavailableError, check_available, env_for_case
+from vpro_assets.rollout.contacts import ContactTracker
+from vpro_assets.rollout.policies.base import EpisodeInfo
+from vpro_assets.rollout.policies.base import InfrastructureError
+from vpro_assets.rollout.policies.base import Observation
+from vpro_assets.rollout.policies.base import as_output
 
 log = logging.getLogger(__name__)
 

@@ -19,12 +19,14 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from .. import paths
-from ..catalog import find_case, load_catalog
-from ..env import CAMERAS, NOOP_ACTION
-from .case_env import check_available, env_for_case, release_cached_envs
-from .episode import MAX_STEPS, WAIT_STEPS, prompt_of
-from .openpi_adapter import quat2axisangle
+from vpro_assets.core import paths
+from vpro_assets.benchmark.catalog import find_case
+from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.libero.env import CAMERAS
+from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.rollout.case_env import check_available, env_for_case, release_cached_envs
+from vpro_assets.rollout.episode import MAX_STEPS, WAIT_STEPS, prompt_of
+from vpro_assets.rollout.policies.openpi import quat2axisangle
 
 ENV_ID = "vpro/Case-v0"
 

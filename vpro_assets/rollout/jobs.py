@@ -17,12 +17,12 @@ import socket
 import time
 import traceback
 
-from ..errors import VProError
-from .case_env import CaseUnavailableError
-from .episode import EpisodeSettings, run_episode
-from .policy import InfrastructureError
-from .spec import make_policy, policy_label
-from .store import utc_now
+from vpro_assets.core.errors import VProError
+from vpro_assets.rollout.case_env import CaseUnavailableError
+from vpro_assets.rollout.episode import EpisodeSettings, run_episode
+from vpro_assets.rollout.policies.base import InfrastructureError
+from vpro_assets.rollout.spec import make_policy, policy_label
+from vpro_assets.rollout.store import utc_now
 
 log = logging.getLogger(__name__)
 

@@ -14,14 +14,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from .. import paths
-from ..catalog import library_versions
-from ..errors import VProError
-from .backends import run_jobs
-from .episode import EpisodeSettings
-from .jobs import make_job
-from .spec import check_spec, policy_label
-from .store import ResultsStore
+from vpro_assets.core import paths
+from vpro_assets.benchmark.catalog import library_versions
+from vpro_assets.core.errors import VProError
+from vpro_assets.rollout.backends import run_jobs
+from vpro_assets.rollout.episode import EpisodeSettings
+from vpro_assets.rollout.jobs import make_job
+from vpro_assets.rollout.spec import check_spec, policy_label
+from vpro_assets.rollout.store import ResultsStore
 
 log = logging.getLogger(__name__)
 

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 from typing import Iterable, Optional
 
-from ..errors import VProError
+from vpro_assets.core.errors import VProError
 
 SCHEMA_VERSION = 1
 STATUSES = ("ok", "error", "unavailable")

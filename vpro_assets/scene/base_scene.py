@@ -12,13 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import libero_bridge
-from ..env import libero_init_states
-from ..errors import VProError
-from ..seeding import TRIALS_PER_CASE
-from ..tasks import TaskRecord, get_task
-from . import sim
-from .bddl_doc import BaseBDDL, read_base
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.env import libero_init_states
+from vpro_assets.core.errors import VProError
+from vpro_assets.core.seeding import TRIALS_PER_CASE
+from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.libero.tasks import get_task
+from vpro_assets.scene import sim
+from vpro_assets.scene.bddl_doc import BaseBDDL, read_base
 
 
 @dataclass

@@ -15,8 +15,8 @@ from pathlib import Path
 
 from bddl_templates import TEMPLATE_DIR
 
-from .. import libero_bridge
-from ..errors import VProError
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.core.errors import VProError
 
 SCENE_TEMPLATE = "scene_variant.bddl"
 REGION_TEMPLATE = "region.bddl"

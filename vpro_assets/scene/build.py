@@ -29,11 +29,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..hashing import sha256_bytes, sha256_file  # noqa: F401  (the scene modules import them from here)
-from .. import paths
-from ..errors import VProError
-from . import bddl_doc, sim, state_files
-from .context import GenContext
+from vpro_assets.scene import plugins
+
+from vpro_assets.core.hashing import sha256_bytes
+from vpro_assets.core.hashing import sha256_file
+from vpro_assets.core import paths
+from vpro_assets.core.errors import VProError
+from vpro_assets.scene import bddl_doc
+from vpro_assets.scene import sim
+from vpro_assets.scene import state_files
+from vpro_assets.scene.context import GenContext
 
 log = logging.getLogger(__name__)
 
@@ -68,12 +73,12 @@ class CaseResult:
 
 
 def input_hash(case: dict, generator) -> str:
-    from . import pool as pool_mod
+    from vpro_assets.scene import pool as pool_mod
 
-    from ..catalog import library_versions
+    from vpro_assets.benchmark.catalog import library_versions
 
-    from .. import libero_bridge
-    from ..tasks import get_task
+    from vpro_assets.libero import bridge as libero_bridge
+    from vpro_assets.libero.tasks import get_task
 
     task = get_task(case["task"])
 
@@ -113,7 +118,7 @@ def _is_current(case_id: str, key: str) -> dict | None:
 def ensure_objects(generated, case_id: str, stages: dict | None = None) -> dict[str, Path]:
     """Write (once, atomically) and register the generated objects a case needs; the seconds a
     shared producer reports per stage (mesh work) are added to `stages` as `object_<stage>`."""
-    from ..object_registry import register_mjcf_object
+    from vpro_assets.objects.registry import register_mjcf_object
 
     out = {}
     for obj in generated:
@@ -146,13 +151,12 @@ def _bddl_name(task) -> str:
 
 def build_case(case: dict, force: bool = False) -> CaseResult:
     """Build one scene case (or confirm it is current)."""
-    import generators
-    from .base_scene import base_scene
-    from .init_gen import trial_state
+    from vpro_assets.scene.base_scene import base_scene
+    from vpro_assets.scene.init_gen import trial_state
 
     started = time.perf_counter()
     cid = case["id"]
-    generator = generators.generator_for(case)
+    generator = plugins.generator_for(case)
     stages: dict[str, float] = {}
     key = input_hash(case, generator)  # cheap: no simulation, so a warm rebuild is quick
     if not force:
@@ -316,7 +320,7 @@ def built_case(case_id: str) -> dict:
     if not meta_path.is_file():
         raise VProError(f"case {case_id}: not built (no {meta_path}); run `vpro build --select {case_id}`")
     meta = json.loads(meta_path.read_text())
-    from ..object_registry import register_mjcf_object
+    from vpro_assets.objects.registry import register_mjcf_object
 
     for name, info in meta.get("generated_objects", {}).items():
         register_mjcf_object(name, objects_root() / name / f"{name}.xml", template=info.get("template"))

@@ -7,10 +7,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import VProError
-from . import pool as pool_mod
-from .base_scene import BaseScene
-from .bddl_doc import Region
+from vpro_assets.core.errors import GeneratorError, VProError
+from vpro_assets.scene import pool as pool_mod
+from vpro_assets.scene.base_scene import BaseScene
+from vpro_assets.scene.bddl_doc import Region
 
 SPOT_RADII = (0.14, 0.18, 0.22, 0.26, 0.30, 0.34, 0.38, 0.42, 0.46, 0.50)  # m from the target's familiar position, nearest first
 SPOT_ANGLES = 24
@@ -35,8 +35,6 @@ class GenContext:
         return self.base.task
 
     def fail(self, why: str) -> VProError:
-        from generators import GeneratorError
-
         return GeneratorError(f"case {self.case_id}: {why}")
 
     # ---- names and lists -------------------------------------------------------------------

@@ -26,11 +26,11 @@ import math
 
 import numpy as np
 
-from .. import seeding
-from ..errors import VProError
-from . import sim
-from .pose import INVERT, class_quat, quat_mul
-from .variant import SceneVariant
+from vpro_assets.core import seeding
+from vpro_assets.core.errors import VProError
+from vpro_assets.scene import sim
+from vpro_assets.scene.pose import INVERT, class_quat, quat_mul
+from vpro_assets.scene.variant import SceneVariant
 
 log = logging.getLogger(__name__)
 

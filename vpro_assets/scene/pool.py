@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import libero_bridge
-from ..errors import VProError
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.core.errors import VProError
 
 # category, family, grasp class: the semantic table (stated data; the distractor rules read it).
 SEMANTICS = {
@@ -98,7 +98,7 @@ def measure_mjcf(path: str, quat=None) -> tuple[tuple[float, float, float], tupl
     turned by `quat` (w, x, y, z), e.g. LIBERO's placement rotation of its class."""
     import mujoco
 
-    from .pose import quat_matrix
+    from vpro_assets.scene.pose import quat_matrix
 
     model = mujoco.MjModel.from_xml_path(path)
     data = mujoco.MjData(model)
@@ -162,7 +162,7 @@ def pool() -> dict[str, PoolObject]:
         if name not in SEMANTICS:
             raise VProError(f"LIBERO object {name!r} has no entry in the distractor pool's semantic table "
                             "(vpro_assets/scene/pool.py SEMANTICS)")
-        from .pose import class_quat
+        from vpro_assets.scene.pose import class_quat
 
         probe = libero_bridge.libero_envs().OBJECTS_DICT[name](name=f"vpro_probe_{name}")
         extents, color, placed = measure_mjcf(probe.file, class_quat(probe))

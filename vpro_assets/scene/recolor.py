@@ -10,8 +10,8 @@ import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from .pool import object_file
-from .variant import GeneratedObject
+from vpro_assets.scene.pool import object_file
+from vpro_assets.scene.variant import GeneratedObject
 
 
 def recolored_name(source: str, color: tuple[int, int, int]) -> str:

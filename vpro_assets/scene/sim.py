@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import libero_bridge
-from ..env import NOOP_ACTION
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.env import NOOP_ACTION
 
 log = logging.getLogger(__name__)
 

@@ -2,7 +2,7 @@
 
 - LIBERO's format: a torch zip archive (`archive/data.pkl`, `archive/version`) around one pickled
   float64 numpy array, exactly the layout of LIBERO's own `.pruned_init` files, so LIBERO's
-  `torch.load(path)` and `vpro_assets.init_states.read_init_states` both read it. Written without
+  `torch.load(path)` and `vpro_assets.libero.init_states.read_init_states` both read it. Written without
   torch: stored (uncompressed) members with a fixed timestamp, protocol-2 pickle like torch's.
 - `.npz`: `states` (rows of time, qpos, qvel), written with fixed member timestamps.
 """

@@ -15,10 +15,11 @@ from typing import Iterator
 
 import numpy as np
 
-from ..init_states import read_init_states
-from . import bddl_doc, sim
-from .build import built_case, objects_root
-from .init_gen import drift
+from vpro_assets.libero.init_states import read_init_states
+from vpro_assets.scene import bddl_doc
+from vpro_assets.scene import sim
+from vpro_assets.scene.build import built_case, objects_root
+from vpro_assets.scene.init_gen import drift
 
 log = logging.getLogger(__name__)
 
@@ -37,8 +38,8 @@ class Validation:
 def validate_case(case: dict) -> Validation:
     import mujoco
 
-    from .. import libero_bridge
-    from ..tasks import get_task
+    from vpro_assets.libero import bridge as libero_bridge
+    from vpro_assets.libero.tasks import get_task
 
     started = time.perf_counter()
     result = Validation(case["id"])
@@ -128,7 +129,7 @@ def validate(cases: list[dict], jobs: int = 1, progress: bool = True) -> Iterato
 
     from tqdm import tqdm
 
-    from .build import _worker_init
+    from vpro_assets.scene.build import _worker_init
 
     with tqdm(total=len(cases), unit="case", desc="vpro validate", disable=not progress) as bar:
         if jobs <= 1:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Mapping
 
-from .bddl_doc import Region
+from vpro_assets.scene.bddl_doc import Region
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,7 @@ class JointSetting:
 
 @dataclass(frozen=True)
 class GeneratedObject:
-    """An MJCF object the case needs registered under `name` (see vpro_assets.object_registry).
+    """An MJCF object the case needs registered under `name` (see vpro_assets.objects.registry).
     `write(directory) -> xml_path` writes its files deterministically (a shared producer may return
     a record with `.xml_path` and `.timings`, seconds per stage of its own work)."""
 

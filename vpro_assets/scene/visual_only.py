@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .pose import quat_matrix
-from .pool import object_file
-from .variant import GeneratedObject
+from vpro_assets.scene.pose import quat_matrix
+from vpro_assets.scene.pool import object_file
+from vpro_assets.scene.variant import GeneratedObject
 
 
 def _geom_defaults(root: ET.Element) -> dict[str, dict]:
@@ -134,7 +134,7 @@ def ghost_object(source: str, label: str, quat, sink: float) -> GeneratedObject:
 
 def _rotate_about(body: ET.Element, joint: ET.Element, angle: float) -> None:
     """Turn `body` (and what it carries) by `angle` about its hinge `joint` (axis through its pos)."""
-    from .pose import axis_angle_quat, quat_mul
+    from vpro_assets.scene.pose import axis_angle_quat, quat_mul
 
     axis = np.array([float(v) for v in joint.get("axis", "0 0 1").split()])
     jp = np.array([float(v) for v in joint.get("pos", "0 0 0").split()])

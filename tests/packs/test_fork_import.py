@@ -1,0 +1,98 @@
+"""A pack registered in a LIBERO environment that does not have the toolkit (a "fork"): LIBERO's
+own benchmark API builds every pack scene, loads every initial state with torch.load, and steps.
+
+The fork environment is made by scripts/make-fork-venv.sh (LIBERO, robosuite, mujoco, CPU torch;
+about 2 minutes the first time, reused afterwards under out/fork-venv)."""
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from vpro_assets.core import paths
+from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.packs.writer import write_pack
+from vpro_assets.benchmark.selection import select_cases
+
+pytestmark = pytest.mark.fork
+FORK_VENV = paths.REPO_ROOT / "out" / "fork-venv"
+CHECK = Path(__file__).with_name("fork_check.py")
+# One case of every scene-variation category plus observation cases.
+SCENE_CASES = ["libero_spatial-00/task_relevant_distractors/same_color-v1",
+               "libero_goal-03/task_precondition_variation/receptacle_openness-v1",
+               "libero_goal-03/visual_state_ambiguity/receptacle_openness-v1",
+               "libero_spatial-00/target_geometry_variation/taper-s1-v1"]
+CASES = SCENE_CASES + ["libero_goal-03/camera_staleness/wrist-delay2-v1",
+                       "libero_10-09/view_unavailability/wrist-constant-v1"]
+
+
+@pytest.fixture(scope="module")
+def fork_python(tmp_path_factory):
+    subprocess.run(["bash", str(paths.REPO_ROOT / "scripts" / "make-fork-venv.sh"), str(FORK_VENV)], check=True,
+                   timeout=1800)
+    python = FORK_VENV / "bin" / "python"
+    site = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    config = tmp_path_factory.mktemp("fork-config")
+    root = f"{site}/libero/libero"
+    (config / "config.yaml").write_text(
+        f"benchmark_root: {root}\nbddl_files: {root}/bddl_files\ninit_states: {root}/init_files\n"
+        f"datasets: {config}/datasets\nassets: {root}/assets\n")
+    return python, config
+
+
+def _run(fork_python, *args):
+    python, config = fork_python
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("VPRO_", "PYTHONPATH"))}
+    env.update(LIBERO_CONFIG_PATH=str(config), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    env["PYOPENGL_PLATFORM"] = env["MUJOCO_GL"]
+    proc = subprocess.run([str(python), str(CHECK), *map(str, args)], capture_output=True, text=True,
+                          timeout=1800, cwd="/", env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    line = next(l for l in proc.stdout.splitlines() if l.startswith("REPORT "))
+    return json.loads(line[len("REPORT "):])
+
+
+@pytest.fixture(scope="module")
+def pack(tmp_path_factory):
+    from vpro_assets.scene.build import build
+
+    catalog = load_catalog(paths.catalog_path())
+    mp = pytest.MonkeyPatch()
+    mp.setenv("VPRO_OUT", str(tmp_path_factory.mktemp("vpro-out")))
+    try:
+        build(select_cases(catalog, SCENE_CASES), jobs=1, progress=False)
+        out = tmp_path_factory.mktemp("packs") / "pack.tar.gz"
+        yield write_pack(select_cases(catalog, CASES), out, catalog, paths.catalog_path())
+    finally:
+        mp.undo()
+
+
+def test_fork_runs_every_pack_scene(fork_python, pack):
+    report = _run(fork_python, pack)
+    assert report["idempotent"]
+    tasks = {t["task"]: t for rows in report["suites"].values() for t in rows}
+    assert set(report["suites"]) == {"vpro_camera_staleness", "vpro_view_unavailability",
+                                     "vpro_task_relevant_distractors", "vpro_task_precondition_variation",
+                                     "vpro_visual_state_ambiguity", "vpro_target_geometry_variation"}
+    assert set(tasks) == {f"{c.split('/')[0]}__{c.rsplit('/', 1)[1]}" for c in CASES}
+    assert tasks["libero_10-09__wrist-constant-v1"]["language"] == "put the yellow and white mug in the microwave and close it"
+    for name, row in tasks.items():
+        scene = any(name == f"{c.split('/')[0]}__{c.rsplit('/', 1)[1]}" for c in SCENE_CASES)
+        assert row["init_states"] == (10 if scene else 50), name  # scene cases carry their frozen states
+        assert row["stepped"] == 10 and row["image"] == [64, 64, 3]
+
+
+def test_clashing_names_are_refused_and_registries_unchanged(fork_python, pack, tmp_path):
+    from vpro_assets.packs.archive import extract_archive
+
+    root = extract_archive(pack, tmp_path)
+    manifest = json.loads((root / "manifest.json").read_text())
+    manifest["suites"]["libero_spatial"] = manifest["suites"].pop("vpro_camera_staleness")
+    manifest["objects"] = [{"name": "akita_black_bowl", "xml": "taxonomy.json", "sha256": "0" * 64}]
+    (root / "manifest.json").write_text(json.dumps(manifest))
+    report = _run(fork_python, root, "--expect-clash")
+    assert report["error"] and "nothing was changed" in report["error"]
+    assert "'akita_black_bowl'" in report["error"] and "'libero_spatial'" in report["error"]
+    assert report["unchanged"]

@@ -1,0 +1,1 @@
+"""Benchmark data: taxonomy (96 settings), applicability, the catalog, selection, the scene artifact lock."""

@@ -1,0 +1,1 @@
+"""Bottom layer: errors, paths, hashing and canonical JSON, atomic writes, seeding, images."""

@@ -1,0 +1,1 @@
+"""Meshes: loading, repair into solids, refinement, deformation, convex decomposition."""

@@ -1,0 +1,263 @@
+"""Target Geometry Variation: a LIBERO target object, deformed, as a LIBERO object with exports.
+
+`generate_deformed_object(category, deformation, severity, out_dir)` is a pure function of its
+arguments and LIBERO's asset files:
+
+1. load the object's visual meshes from its MJCF file in LIBERO's assets (`vpro_assets.geometry.meshes`);
+2. make the solid: each part a closed 2-manifold through manifold3d (`vpro_assets.geometry.solid`, which
+   reports how: merge, hole filling or level-set remesh), parts joined by boolean union;
+3. deform solid and visual meshes with the same map (`vpro_assets.geometry.deform`: taper, multipeak,
+   twist, asymmetric; magnitudes from the taxonomy's GEOMETRY_SEVERITY) about the object's up
+   axis in LIBERO's scenes (UP_AXES, measured by `scripts/measure_up_axes.py`);
+4. decompose the deformed solid into convex hulls with coacd (`vpro_assets.geometry.convex`, fixed seed);
+5. write the MJCF object (visual meshes with the original textures, hulls, the original object's
+   mass as LIBERO computes it, the inertia of the deformed solid, LIBERO's placement sites), a
+   USD stage and a URDF; every file at fixed precision, named by its content, written atomically.
+
+Output layout under `out_dir` (every path below is listed with its sha256 in the result):
+    <name>/<name>.xml, <name>/<name>.urdf, <name>/<name>.usda, <name>/record.json
+    <name>/meshes/visual<i>_<sha>.obj, solid_<sha>.obj, hull_<sha>.obj
+    textures/<texture stem>_<sha>.png          (shared by every object made from one texture)
+with `<name>` = `vpro_<category>_<deformation>_s<severity>_v<generator version>`.
+
+Visual meshes keep the original texture coordinates and carry their normals through the map
+(n' = J^-T n); the collision hulls, the solid and the exports are built from the deformed solid.
+
+An object whose inputs (the source files' bytes, the parameters, the source of this pipeline's
+modules and the versions of trimesh, manifold3d, coacd, numpy, usd-core and mujoco) are unchanged
+is not regenerated: `record.json` keeps the key of its inputs and the sha256 of every file, and is
+written last. Errors (`MeshError`, `InvalidParameterError`, `UnknownIdError`, all `VProError`)
+name the object and leave nothing behind in `out_dir` but files of other objects.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+from vpro_assets.geometry.convex import CoacdParams
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.core.errors import UnknownIdError
+from vpro_assets.geometry.meshes import MeshError
+from vpro_assets.geometry.meshes import sha256_file
+from vpro_assets.core.seeding import derive_seed
+
+log = logging.getLogger(__name__)
+
+GENERATOR = "target_geometry"
+GENERATOR_VERSION = 1
+# Part of every object's input key, so a changed pipeline regenerates its objects. Bump it when an
+# edit changes what the pipeline writes (the lock's hashes catch a forgotten bump). Version 1 keyed
+# objects by the sha256 of the pipeline's source files instead, which made every refactor (a moved
+# module, a reformatted line) change every object's record.json, and so its recorded tree hash.
+PIPELINE_VERSION = 2
+SEVERITIES = (1, 2, 3)
+REFINE_FRACTION = 1.0 / 20.0  # meshes refined to edges under this fraction of the object's size
+COACD_SIMPLIFY_FRACTION = 1.0 / 250.0  # the solid given to coacd is simplified within this
+# The object's up axis in its own mesh frame once LIBERO places it (measured from LIBERO's scenes
+# with scripts/measure_up_axes.py: every target category of a geometry case).
+UP_AXES: Mapping[str, str] = {
+    "akita_black_bowl": "+z", "alphabet_soup": "+y", "bbq_sauce": "+z", "black_book": "+z",
+    "butter": "+z", "chocolate_pudding": "+z", "cream_cheese": "+z", "ketchup": "+y", "milk": "+y",
+    "moka_pot": "+z", "orange_juice": "+y", "plate": "+z", "porcelain_mug": "+z",
+    "salad_dressing": "+y", "tomato_sauce": "+y", "white_yellow_mug": "+z", "wine_bottle": "+z",
+}
+
+
+@dataclass(frozen=True)
+class GeneratedFile:
+    path: str  # relative to out_dir, '/' separated
+    sha256: str
+    role: str  # "mjcf", "urdf", "usd", "visual_mesh", "solid_mesh", "hull_mesh", "texture", "record"
+
+
+@dataclass
+class GeneratedObject:
+    name: str
+    category: str
+    deformation: str
+    severity: int
+    setting_id: str
+    out_dir: Path
+    files: tuple[GeneratedFile, ...]
+    record: dict
+    cached: bool = False
+    timings: dict[str, float] = field(default_factory=dict)  # seconds per stage (empty when cached)
+
+    def path(self, role: str) -> Path:
+        return self.out_dir / next(f.path for f in self.files if f.role == role)
+
+    @property
+    def xml_path(self) -> Path:
+        return self.path("mjcf")
+
+    @property
+    def urdf_path(self) -> Path:
+        return self.path("urdf")
+
+    @property
+    def usd_path(self) -> Path:
+        return self.path("usd")
+
+    def file_hashes(self) -> dict[str, str]:
+        """{relative path: sha256} of every file, for the catalog."""
+        return {f.path: f.sha256 for f in self.files}
+
+
+def object_name(category: str, deformation: str, severity: int) -> str:
+    return f"vpro_{category}_{deformation}_s{severity}_v{GENERATOR_VERSION}"
+
+
+def geometry_setting(deformation: str, severity: int):
+    """The taxonomy's setting for (deformation, severity)."""
+    from vpro_assets.benchmark import taxonomy
+
+    for setting in taxonomy.settings_of("target_geometry_variation"):
+        params = setting.param_dict
+        if params.get("deformation") == deformation and params.get("severity") == severity:
+            return setting
+    known = sorted({s.param_dict["deformation"] for s in taxonomy.settings_of("target_geometry_variation")})
+    if deformation not in known:
+        raise InvalidParameterError(f"deformation {deformation!r} is not one of {', '.join(known)}")
+    raise InvalidParameterError(f"severity {severity!r} is not one of {SEVERITIES}")
+
+
+def libero_object_xml(category: str) -> Path:
+    """The MJCF file of LIBERO's object `category` (through LIBERO's own object class)."""
+    from vpro_assets.libero import bridge as libero_bridge
+
+    objects = libero_bridge.libero_envs().OBJECTS_DICT
+    if category not in objects:
+        raise UnknownIdError("LIBERO object", category, objects)
+    return Path(objects[category]().file)
+
+
+def up_axis(category: str) -> str:
+    if category not in UP_AXES:
+        raise InvalidParameterError(
+            f"object {category!r} has no measured up axis; add it to UP_AXES after running "
+            f"scripts/measure_up_axes.py")
+    return UP_AXES[category]
+
+
+def _versions() -> dict[str, str]:
+    from importlib.metadata import version
+
+    return {pkg: version(pkg) for pkg in ("trimesh", "manifold3d", "coacd", "numpy", "usd-core", "mujoco")}
+
+
+def input_key(category: str, deformation: str, severity: int, coacd_params: CoacdParams, xml_path: Path) -> dict:
+    from vpro_assets.objects.registry import content_sha256
+
+    setting = geometry_setting(deformation, severity)
+    return {
+        "generator": GENERATOR, "generator_version": GENERATOR_VERSION, "category": category,
+        "setting": setting.id, "params": setting.param_dict, "up_axis": up_axis(category),
+        "source_xml": xml_path.name, "source_sha256": content_sha256(xml_path),
+        "coacd": coacd_params.to_json(), "refine_fraction": REFINE_FRACTION,
+        "coacd_simplify_fraction": COACD_SIMPLIFY_FRACTION, "versions": _versions(), "pipeline_version": PIPELINE_VERSION,
+    }
+
+
+def default_coacd_params(category: str, deformation: str, severity: int, **overrides) -> CoacdParams:
+    seed = derive_seed(GENERATOR, category, deformation, severity, "coacd")
+    return CoacdParams(**{**overrides, "seed": overrides.get("seed", seed)})
+
+
+def generate_deformed_object(
+    category: str,
+    deformation: str,
+    severity: int,
+    out_dir: Path | str,
+    *,
+    coacd_params: CoacdParams | None = None,
+    force: bool = False,
+) -> GeneratedObject:
+    """Generate (or reuse, when its inputs are unchanged) the deformed object; see the module doc."""
+    out_dir = Path(out_dir)
+    setting = geometry_setting(deformation, severity)
+    xml_path = libero_object_xml(category)
+    coacd_params = coacd_params or default_coacd_params(category, deformation, severity)
+    key = input_key(category, deformation, severity, coacd_params, xml_path)
+    name = object_name(category, deformation, severity)
+    if not force:
+        cached = load_generated(out_dir, name, key)
+        if cached is not None:
+            return cached
+    from vpro_assets.objects import deformed_build as build
+
+    staging = out_dir / f".staging-{name}-{os.getpid()}"
+    shutil.rmtree(staging, ignore_errors=True)
+    try:
+        result = build.build_object(
+            name=name, category=category, deformation=deformation, severity=severity, setting=setting,
+            xml_path=xml_path, up=up_axis(category), coacd_params=coacd_params, key=key,
+            staging=staging, out_dir=out_dir,
+        )
+        _publish(staging, out_dir / name)
+    except MeshError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise MeshError(f"{name}: {exc}") from exc
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return result
+
+
+def _publish(staging: Path, final: Path) -> None:
+    """Swap the finished staging folder into place (the old folder is removed afterwards).
+
+    Safe against another process publishing the same object at the same time: its files have the
+    same bytes, so whichever folder ends up in place is the right one.
+    """
+    old = final.parent / f".old-{final.name}-{os.getpid()}"
+    for _attempt in range(3):
+        try:
+            if final.exists():
+                os.replace(final, old)
+            os.replace(staging, final)
+            break
+        except OSError:  # `final` reappeared (another worker published it): try again
+            continue
+    else:
+        if (final / "record.json").is_file():  # another worker's identical object is in place
+            shutil.rmtree(staging, ignore_errors=True)
+        else:
+            raise OSError(f"could not publish {staging} as {final}")
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def load_generated(out_dir: Path | str, name: str, key: dict | None = None) -> GeneratedObject | None:
+    """The object recorded in `out_dir/name/record.json` if its files are intact (and its input key
+    equals `key`, when given); None otherwise."""
+    out_dir = Path(out_dir)
+    record_path = out_dir / name / "record.json"
+    if not record_path.is_file():
+        return None
+    try:
+        record = json.loads(record_path.read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    if key is not None and record.get("input_key") != json.loads(json.dumps(key)):
+        return None
+    files = [GeneratedFile(**f) for f in record["files"]]
+    for f in files:
+        path = out_dir / f.path
+        if not path.is_file() or sha256_file(path) != f.sha256:
+            log.info("%s: %s is missing or changed; regenerating", name, f.path)
+            return None
+    files.append(GeneratedFile(f"{name}/record.json", sha256_file(record_path), "record"))
+    return GeneratedObject(name, record["category"], record["deformation"], record["severity"], record["setting"],
+                           out_dir, tuple(files), record, cached=True)
+
+
+def register_generated(obj: GeneratedObject) -> type:
+    """Register the object with LIBERO under its name, placed like the object it deforms."""
+    from vpro_assets.objects.registry import register_mjcf_object
+
+    return register_mjcf_object(obj.name, obj.xml_path, template=obj.category)

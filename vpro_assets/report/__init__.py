@@ -1,0 +1,1 @@
+"""Reports from results: metrics, the paper's tables, plots."""

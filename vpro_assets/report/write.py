@@ -1,0 +1,45 @@
+"""`vpro report`: every table in Markdown (`report.md`) and LaTeX (`tables.tex`), plus PNG plots."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional, Sequence
+
+from vpro_assets.core.atomic import write_text_atomic
+from vpro_assets.core.errors import VProError
+from vpro_assets.report.tables import LATEX_PREAMBLE
+from vpro_assets.report.tables import all_tables
+from vpro_assets.rollout.store import ResultsStore
+
+
+def write_report(results: Path | str, out: Path | str, run_ids: Optional[Sequence[str]] = None,
+                 plots: bool = True) -> dict:
+    results, out = Path(results), Path(out)
+    if not results.is_file():
+        raise VProError(f"{results}: no such results database")
+    with ResultsStore(results) as store:
+        runs = store.runs()
+        known = {r["run_id"] for r in runs}
+        for rid in run_ids or []:
+            if rid not in known:
+                raise VProError(f"{results}: no run {rid!r} (runs: {', '.join(sorted(known)) or 'none'})")
+        chosen = [r for r in runs if not run_ids or r["run_id"] in run_ids]
+        rows = [row for r in chosen for row in store.episodes(r["run_id"])]
+    if not rows:
+        raise VProError(f"{results}: no episodes recorded" + (f" in runs {', '.join(run_ids)}" if run_ids else ""))
+    tables = all_tables(rows)
+    header = ["# LIBERO-VPro report", "", f"Results: `{results}`; {len(rows)} episode row(s) from {len(chosen)} run(s):", ""]
+    for r in chosen:
+        s = r["settings"]
+        header.append(f"- `{r['run_id']}`: policy `{r['policy_id']}` ({r['policy_spec']}), {r['trials']} trial(s)/case, "
+                      f"resolution {s['resolution']}, {s['wait_steps']} wait steps, max steps "
+                      f"{s['max_steps_override'] or s['max_steps']}")
+    md = "\n".join(header) + "\n\n" + "\n".join(t.markdown() for t in tables)
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "report.md", md)
+    write_text_atomic(out / "tables.tex", LATEX_PREAMBLE + "\n" + "\n".join(t.latex() for t in tables))
+    written = {"markdown": out / "report.md", "latex": out / "tables.tex", "plots": []}
+    if plots:
+        from vpro_assets.report.plots import write_plots
+
+        written["plots"] = write_plots(rows, out)
+    return written

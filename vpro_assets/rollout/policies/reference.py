@@ -1,0 +1,84 @@
+"""Reference policies: `noop` (holds still, gripper open) and `random` (seeded random motions).
+
+They need no model and make every code path of the runner run; `random` draws from the stream
+`seeding.rng(case_id, trial, "policy")`, so its episodes are reproducible on any backend.
+`oracle` is the privileged-state scripted policy of `vpro_assets.rollout.policies.scripted` when that module
+exists; it receives the live environment through `bind_env` (the one policy allowed to see it).
+"""
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import logging
+
+import numpy as np
+
+from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.core.errors import VProError
+from vpro_assets.core.seeding import rng
+from vpro_assets.rollout.policies.base import EpisodeInfo
+from vpro_assets.rollout.policies.base import Observation
+from vpro_assets.rollout.policies.base import PolicyOutput
+
+log = logging.getLogger(__name__)
+
+
+class NoopPolicy:
+    """LIBERO's no-op action at every step."""
+
+    policy_id = "noop"
+    replan_steps = None
+
+    def __init__(self, chunk: int = 5):
+        self.chunk = chunk
+
+    def reset(self, episode: EpisodeInfo) -> None:
+        pass
+
+    def act(self, obs: Observation) -> PolicyOutput:
+        return PolicyOutput(np.tile(NOOP_ACTION, (self.chunk, 1)))
+
+    def close(self) -> None:
+        pass
+
+
+class RandomPolicy:
+    """Uniform random end-effector motions (scaled), gripper open or closed at random per chunk."""
+
+    policy_id = "random"
+    replan_steps = None
+
+    def __init__(self, chunk: int = 5, scale: float = 0.5):
+        self.chunk, self.scale = chunk, scale
+        self._rng = None
+
+    def reset(self, episode: EpisodeInfo) -> None:
+        self._rng = rng(episode.case_id, episode.trial, "policy")
+
+    def act(self, obs: Observation) -> PolicyOutput:
+        if self._rng is None:
+            raise VProError("RandomPolicy.act called before reset")
+        motion = self._rng.uniform(-self.scale, self.scale, size=(self.chunk, 6))
+        gripper = np.full((self.chunk, 1), self._rng.choice([-1.0, 1.0]))
+        return PolicyOutput(np.concatenate([motion, gripper], axis=1))
+
+    def close(self) -> None:
+        pass
+
+
+def oracle_available() -> bool:
+    return importlib.util.find_spec("vpro_assets.rollout.policies.scripted") is not None
+
+
+def make_oracle(**kwargs):
+    """The scripted privileged-state policy, or a VProError saying it is not there."""
+    if not oracle_available():
+        raise VProError("policy 'oracle' needs vpro_assets.rollout.policies.scripted, which this checkout does not have")
+    module = importlib.import_module("vpro_assets.rollout.policies.scripted")
+    for name in ("make_policy", "ScriptedPolicy", "OraclePolicy"):
+        if hasattr(module, name):
+            return getattr(module, name)(**kwargs)
+    raise VProError("vpro_assets.rollout.policies.scripted defines none of make_policy, ScriptedPolicy, OraclePolicy")
+
+
+REFERENCE_POLICIES = {"noop": NoopPolicy, "random": RandomPolicy, "oracle": make_oracle}
