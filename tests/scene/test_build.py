@@ -48,7 +48,7 @@ def test_sample_case_builds_validates_and_rebuilds_identically(catalog, out_dir,
     case = _case(catalog, cid)
     first = build.build_case(case, force=True)
     assert first.status == "built"
-    d = build.case_dir(cid)
+    d = paths.scene_case_dir(cid)
     files = {p.name: p.read_bytes() for p in d.iterdir()}
     assert set(first.files) <= set(files) and "meta.json" in files
     meta = json.loads(files["meta.json"])
@@ -83,8 +83,8 @@ def test_state_that_cannot_settle_names_case_and_leaves_nothing(catalog, out_dir
     monkeypatch.setitem(plugins._REGISTRY, gen.name, dataclasses.replace(gen, fn=overlapping))
     with pytest.raises(InitStateError, match=rf"case {cid}: trial 0 has no initial state"):
         build.build_case(_case(catalog, cid), force=True)
-    assert not build.case_dir(cid).exists()
-    assert not list(build.scene_root().rglob(".tmp-*"))
+    assert not paths.scene_case_dir(cid).exists()
+    assert not list(paths.scene_root().rglob(".tmp-*"))
 
 
 def test_unknown_object_in_a_generator_names_the_case(catalog, out_dir, monkeypatch):
@@ -101,7 +101,7 @@ def test_unknown_object_in_a_generator_names_the_case(catalog, out_dir, monkeypa
     monkeypatch.setitem(plugins._REGISTRY, gen.name, dataclasses.replace(gen, fn=unknown))
     with pytest.raises(VProError, match=rf"case {cid}: unknown object 'golden_teapot'"):
         build.build_case(_case(catalog, cid), force=True)
-    assert not build.case_dir(cid).exists()
+    assert not paths.scene_case_dir(cid).exists()
 
 
 @pytest.mark.slow

@@ -121,8 +121,8 @@ def test_generated_object_tree_hash_covers_folder_and_shared_textures(tmp_path, 
     """A generated object is recorded as one hash over its folder and the shared textures its MJCF
     references: changing a hull, adding a file or changing a texture outside the folder changes it,
     and `check_built` names the object folder."""
-    from vpro_assets.objects.registry import object_files
-    from vpro_assets.objects.registry import tree_sha256
+    from vpro_assets.core.hashing import mjcf_tree_files as object_files
+    from vpro_assets.core.hashing import mjcf_tree_sha256 as tree_sha256
     from vpro_assets.benchmark import lock
 
     monkeypatch.setenv("VPRO_OUT", str(tmp_path))

@@ -16,6 +16,7 @@ from vpro_assets.benchmark import applicability
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.core.atomic import write_text_atomic
+from vpro_assets.core.hashing import canonical_json
 from vpro_assets.core.errors import CatalogError
 from vpro_assets.core.errors import UnknownIdError
 from vpro_assets.core.seeding import SEED_SCHEME
@@ -130,7 +131,7 @@ def build_catalog(tasks: tuple[TaskRecord, ...] | None = None) -> dict[str, Any]
 
 def dumps(catalog: dict) -> str:
     """Canonical text: sorted keys, one-space indent, trailing newline."""
-    return json.dumps(catalog, sort_keys=True, indent=1, ensure_ascii=False) + "\n"
+    return canonical_json(catalog)
 
 
 def write_catalog(catalog: dict, path: Path) -> None:

@@ -7,7 +7,7 @@ case's `artifacts` and `init_states.file`; `vpro catalog verify` checks the cata
 rebuild always, and with `--artifacts` also checks every file built in out/ against the recorded
 hashes (files not built are reported as such, not as errors). A case's generated objects (deformed
 targets, recoloured distractors) are recorded as one tree hash per object folder
-(`object_registry.tree_sha256`, key `objects/<name>/`): every mesh, hull, export and shared
+(`core.hashing.mjcf_tree_sha256`, key `objects/<name>/`): every mesh, hull, export and shared
 texture, without listing the ~50 hull files of each deformed object in the catalog. A full check is
 `vpro build -j 2 && vpro catalog verify --artifacts` (see README).
 """
@@ -18,6 +18,7 @@ from pathlib import Path
 
 from vpro_assets.core import paths
 from vpro_assets.core.atomic import write_text_atomic
+from vpro_assets.core.hashing import canonical_json, mjcf_tree_sha256, sha256_file
 
 LOCK_NAME = "scene_artifacts.lock.json"
 
@@ -49,24 +50,20 @@ def record(results) -> None:
         if objects:
             entry["objects"] = objects
         data[r.case_id] = entry
-    write_text_atomic(lock_path(), json.dumps(data, sort_keys=True, indent=1) + "\n")
+    write_text_atomic(lock_path(), canonical_json(data))
 
 
 def _generated_objects(case_id: str) -> list[str]:
-    from vpro_assets.scene.build import META, case_dir
-
-    meta = json.loads((case_dir(case_id) / META).read_text())
+    meta = json.loads((paths.scene_case_dir(case_id) / paths.SCENE_META).read_text())
     return sorted(meta.get("generated_objects", {}))
 
 
 def _object_xml(name: str) -> Path:
-    return paths.out_dir() / "objects" / name / f"{name}.xml"
+    return paths.objects_root() / name / f"{name}.xml"
 
 
 def _object_tree(name: str) -> str:
-    from vpro_assets.objects.registry import tree_sha256
-
-    return tree_sha256(_object_xml(name))
+    return mjcf_tree_sha256(_object_xml(name))
 
 
 def case_artifacts(case_id: str, entry: dict) -> dict:
@@ -83,8 +80,6 @@ def init_file(case_id: str, entry: dict) -> str | None:
 
 def check_built(catalog: dict) -> tuple[list[str], int, int]:
     """(differences, files checked, files not built) of out/ against the catalog's artifact hashes."""
-    from vpro_assets.core.hashing import sha256_file
-
     diffs, checked, missing = [], 0, 0
     trees: dict[str, str] = {}
     for case in catalog["cases"]:

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
 
+from vpro_assets.core.atomic import publish_dir
 from vpro_assets.geometry.convex import CoacdParams
 from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.core.errors import UnknownIdError
@@ -199,7 +200,7 @@ def generate_deformed_object(
             xml_path=xml_path, up=up_axis(category), coacd_params=coacd_params, key=key,
             staging=staging, out_dir=out_dir,
         )
-        _publish(staging, out_dir / name)
+        publish_dir(staging, out_dir / name)
     except MeshError as exc:
         shutil.rmtree(staging, ignore_errors=True)
         raise MeshError(f"{name}: {exc}") from exc
@@ -207,29 +208,6 @@ def generate_deformed_object(
         shutil.rmtree(staging, ignore_errors=True)
         raise
     return result
-
-
-def _publish(staging: Path, final: Path) -> None:
-    """Swap the finished staging folder into place (the old folder is removed afterwards).
-
-    Safe against another process publishing the same object at the same time: its files have the
-    same bytes, so whichever folder ends up in place is the right one.
-    """
-    old = final.parent / f".old-{final.name}-{os.getpid()}"
-    for _attempt in range(3):
-        try:
-            if final.exists():
-                os.replace(final, old)
-            os.replace(staging, final)
-            break
-        except OSError:  # `final` reappeared (another worker published it): try again
-            continue
-    else:
-        if (final / "record.json").is_file():  # another worker's identical object is in place
-            shutil.rmtree(staging, ignore_errors=True)
-        else:
-            raise OSError(f"could not publish {staging} as {final}")
-    shutil.rmtree(old, ignore_errors=True)
 
 
 def load_generated(out_dir: Path | str, name: str, key: dict | None = None) -> GeneratedObject | None:

@@ -13,6 +13,7 @@ from vpro_assets.objects.deformed import REFINE_FRACTION
 from vpro_assets.objects.deformed import GeneratedFile
 from vpro_assets.objects.deformed import GeneratedObject
 from vpro_assets.geometry import deform as deform_mod
+from vpro_assets.core.hashing import canonical_json
 from vpro_assets.core.atomic import write_bytes_atomic
 from vpro_assets.geometry.convex import CoacdParams
 from vpro_assets.geometry.convex import decompose
@@ -176,7 +177,7 @@ def build_object(*, name, category, deformation, severity, setting, xml_path: Pa
     file_list = [GeneratedFile(f"{name}/{path}", sha256_bytes(data), role) for path, (data, role) in sorted(files.items())]
     file_list += [GeneratedFile(path, sha, "texture") for path, (_src, sha) in sorted(textures.items())]
     record["files"] = [f.__dict__ for f in file_list]
-    record_bytes = (json.dumps(record, indent=1, sort_keys=True) + "\n").encode()
+    record_bytes = canonical_json(record).encode()
     for path, (data, _role) in files.items():
         write_bytes_atomic(obj_dir / path, data)
     for path, (src, sha) in textures.items():

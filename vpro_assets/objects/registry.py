@@ -76,29 +76,6 @@ def check_mjcf_object(xml_path: Path | str) -> ET.Element:
     return root
 
 
-def object_files(xml_path: Path | str) -> list[Path]:
-    """Every file of a generated object: its folder (MJCF, meshes, USD/URDF exports, record) and
-    the files its MJCF references outside the folder (shared textures), sorted, no duplicates."""
-    xml_path = Path(xml_path)
-    folder = xml_path.parent.resolve()
-    found = {p.resolve() for p in folder.rglob("*") if p.is_file()}
-    for element in ET.parse(xml_path).getroot().iter():
-        ref = element.get("file")
-        if ref:
-            found.add((folder / ref).resolve())
-    return sorted(found)
-
-
-def tree_sha256(xml_path: Path | str) -> str:
-    """One hash of all `object_files`: sha256 over (path relative to the objects root, sha256)
-    lines, so a changed, added or missing file changes it."""
-    from vpro_assets.core.hashing import sha256_file
-
-    root = Path(xml_path).parent.resolve().parent
-    lines = [f"{p.relative_to(root).as_posix()} {sha256_file(p)}\n" for p in object_files(xml_path)]
-    return hashlib.sha256("".join(lines).encode()).hexdigest()
-
-
 def content_sha256(xml_path: Path | str) -> str:
     """sha256 over the XML bytes and the bytes of every file it references (in document order)."""
     xml_path = Path(xml_path)

@@ -10,7 +10,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from vpro_assets.core.hashing import sha256_file
+from vpro_assets.core.hashing import canonical_json, sha256_file
 from vpro_assets.core.errors import VProError
 
 MANIFEST = "manifest.json"
@@ -33,7 +33,7 @@ def file_entries(root: Path) -> dict[str, dict]:
 
 
 def dumps(manifest: dict) -> str:
-    return json.dumps(manifest, sort_keys=True, indent=1) + "\n"
+    return canonical_json(manifest)
 
 
 def read_manifest(root: Path) -> dict:

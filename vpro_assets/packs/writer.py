@@ -26,6 +26,7 @@ from pathlib import Path
 from vpro_assets import __version__
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.core import paths
+from vpro_assets.core.hashing import canonical_json, mjcf_tree_files
 from vpro_assets.benchmark.catalog import library_versions
 from vpro_assets.benchmark.taxonomy import SCENE
 from vpro_assets.libero.tasks import libero_instruction
@@ -69,9 +70,7 @@ def _case_sources(case: dict) -> dict:
 def _scene_sources(case: dict) -> dict:
     """Files of a built scene case, read from its build record (nothing is registered or built)."""
     from vpro_assets.objects.registry import content_sha256
-    from vpro_assets.scene.build import META, case_dir, objects_root
-
-    meta_path = case_dir(case["id"]) / META
+    meta_path = paths.scene_case_dir(case["id"]) / paths.SCENE_META
     if not meta_path.is_file():
         raise PackError(f"case {case['id']} changes the scene and its artifacts are not built; "
                         f"run `vpro build --select {case['id']}` first")
@@ -79,21 +78,19 @@ def _scene_sources(case: dict) -> dict:
     files = meta["files"]
     objects = []
     for name, info in sorted(meta.get("generated_objects", {}).items()):
-        xml = objects_root() / name / f"{name}.xml"
-        objects.append({"name": name, "dir": objects_root() / name, "xml": f"{name}.xml",
+        xml = paths.objects_root() / name / f"{name}.xml"
+        objects.append({"name": name, "dir": paths.objects_root() / name, "xml": f"{name}.xml",
                         "template": info.get("template"), "sha256": content_sha256(xml)})
-    return {"bddl": case_dir(case["id"]) / next(f for f in files if f.endswith(".bddl")),
-            "init_states": case_dir(case["id"]) / next(f for f in files if f.endswith(".pruned_init")),
+    return {"bddl": paths.scene_case_dir(case["id"]) / next(f for f in files if f.endswith(".bddl")),
+            "init_states": paths.scene_case_dir(case["id"]) / next(f for f in files if f.endswith(".pruned_init")),
             "objects": objects}
 
 
 def _copy_object(obj: dict, assets: Path) -> None:
-    """The object's files (`object_registry.object_files`: its folder plus shared textures it
+    """The object's files (`core.hashing.mjcf_tree_files`: its folder plus shared textures it
     references) at the same relative places under assets/ as under out/objects/."""
-    from vpro_assets.objects.registry import object_files
-
     src_root = Path(obj["dir"]).resolve().parent
-    for path in object_files(Path(obj["dir"]) / obj["xml"]):
+    for path in mjcf_tree_files(Path(obj["dir"]) / obj["xml"]):
         _copy(path, assets / path.relative_to(src_root))
 
 
@@ -131,10 +128,9 @@ def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> Non
                                 "bddl": f"bddl_files/{suite}/{name}.bddl",
                                 "init_states": f"init_files/{suite}/{name}.pruned_init"})
         (root / "cases" / suite).mkdir(parents=True, exist_ok=True)
-        (root / "cases" / suite / f"{name}.json").write_text(json.dumps(spec, sort_keys=True, indent=1) + "\n")
+        (root / "cases" / suite / f"{name}.json").write_text(canonical_json(spec))
         suites.setdefault(suite, []).append({"name": name, "language": language, "case": case["id"]})
-    (root / "taxonomy.json").write_text(json.dumps(
-        {k: catalog[k] for k in ("dimensions", "categories", "settings")}, sort_keys=True, indent=1) + "\n")
+    (root / "taxonomy.json").write_text(canonical_json({k: catalog[k] for k in ("dimensions", "categories", "settings")}))
     (root / FORK_MODULE).write_bytes((Path(__file__).resolve().parent / "fork_runtime.py").read_bytes())
     (root / "README.md").write_text(README.format(suites=", ".join(f"`{s}`" for s in sorted(suites))))
     _check_no_absolute_paths(root)

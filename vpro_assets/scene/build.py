@@ -31,9 +31,10 @@ import numpy as np
 
 from vpro_assets.scene import plugins
 
-from vpro_assets.core.hashing import sha256_bytes
+from vpro_assets.core.hashing import canonical_json, sha256_bytes
 from vpro_assets.core.hashing import sha256_file
 from vpro_assets.core import paths
+from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import VProError
 from vpro_assets.scene import bddl_doc
 from vpro_assets.scene import sim
@@ -43,23 +44,6 @@ from vpro_assets.scene.context import GenContext
 log = logging.getLogger(__name__)
 
 BUILD_VERSION = 3  # bump when what a build writes changes without a generator's version changing
-META = "meta.json"
-
-
-def scene_root() -> Path:
-    return paths.out_dir() / "scene"
-
-
-def objects_root() -> Path:
-    return paths.out_dir() / "objects"
-
-
-def case_dir(case_id: str) -> Path:
-    return scene_root() / case_id
-
-
-def canonical(obj) -> str:
-    return json.dumps(obj, sort_keys=True, indent=1, ensure_ascii=False) + "\n"
 
 
 @dataclass
@@ -85,11 +69,11 @@ def input_hash(case: dict, generator) -> str:
     h = hashlib.sha256()
     for part in (
         f"build-v{BUILD_VERSION}", f"{generator.name}-v{generator.version}",
-        canonical({k: case[k] for k in ("id", "setting", "params", "trial_seeds", "task")}),
+        canonical_json({k: case[k] for k in ("id", "setting", "params", "trial_seeds", "task")}),
         libero_bridge.bddl_path(task.suite, task.name).read_bytes().hex(),
         libero_bridge.init_state_path(task.suite, task.name).read_bytes().hex(),
-        canonical({k: v.to_json() for k, v in pool_mod.pool().items()}),
-        canonical(library_versions()),
+        canonical_json({k: v.to_json() for k, v in pool_mod.pool().items()}),
+        canonical_json(library_versions()),
         (Path(bddl_doc.TEMPLATE_DIR) / bddl_doc.SCENE_TEMPLATE).read_text(),
         (Path(bddl_doc.TEMPLATE_DIR) / bddl_doc.REGION_TEMPLATE).read_text(),
     ):
@@ -99,7 +83,7 @@ def input_hash(case: dict, generator) -> str:
 
 
 def _is_current(case_id: str, key: str) -> dict | None:
-    meta_path = case_dir(case_id) / META
+    meta_path = paths.scene_case_dir(case_id) / paths.SCENE_META
     if not meta_path.is_file():
         return None
     try:
@@ -109,7 +93,7 @@ def _is_current(case_id: str, key: str) -> dict | None:
     if meta.get("input_hash") != key:
         return None
     for rel, digest in meta.get("files", {}).items():
-        path = case_dir(case_id) / rel
+        path = paths.scene_case_dir(case_id) / rel
         if not path.is_file() or sha256_file(path) != digest:
             return None
     return meta
@@ -122,24 +106,21 @@ def ensure_objects(generated, case_id: str, stages: dict | None = None) -> dict[
 
     out = {}
     for obj in generated:
-        final = objects_root() / obj.name
+        final = paths.objects_root() / obj.name
         xml = final / f"{obj.name}.xml"
         if obj.shared:  # the producer caches, lays out and publishes its files itself
-            written = obj.write(objects_root())
+            written = obj.write(paths.objects_root())
             xml = Path(getattr(written, "xml_path", written))
             for stage, seconds in getattr(written, "timings", {}).items():
                 if stages is not None:
                     stages[f"object_{stage}"] = stages.get(f"object_{stage}", 0.0) + seconds
         elif not xml.is_file():
-            tmp = objects_root() / f".tmp-{obj.name}-{os.getpid()}"
+            tmp = paths.objects_root() / f".tmp-{obj.name}-{os.getpid()}"
             shutil.rmtree(tmp, ignore_errors=True)
             written = obj.write(tmp)
             if written.name != xml.name:
                 raise VProError(f"case {case_id}: generated object {obj.name} wrote {written.name}, expected {xml.name}")
-            try:
-                os.replace(tmp, final)
-            except OSError:  # another worker won the race: its copy has the same bytes
-                shutil.rmtree(tmp, ignore_errors=True)
+            publish_dir(tmp, final)
         register_mjcf_object(obj.name, xml, template=obj.template)
         out[obj.name] = xml
     return out
@@ -182,7 +163,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
     bddl_doc.check_variant(text, base.bddl, cid)
     stages["bddl"] = time.perf_counter() - t
 
-    tmp = scene_root() / f".tmp-{cid.replace('/', '__')}-{os.getpid()}"
+    tmp = paths.scene_root() / f".tmp-{cid.replace('/', '__')}-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
     try:
@@ -218,16 +199,8 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
                             **({"libero_rows": base.trial_rows} if base.trial_rows != list(range(len(rows))) else {})},
             "files": hashes,
         }
-        (tmp / META).write_text(canonical(meta))
-        final = case_dir(cid)
-        final.parent.mkdir(parents=True, exist_ok=True)
-        if final.exists():
-            trash = final.with_name(f".old-{final.name}-{os.getpid()}")
-            os.replace(final, trash)
-            os.replace(tmp, final)
-            shutil.rmtree(trash, ignore_errors=True)
-        else:
-            os.replace(tmp, final)
+        (tmp / paths.SCENE_META).write_text(canonical_json(meta))
+        publish_dir(tmp, paths.scene_case_dir(cid))
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -255,7 +228,7 @@ def _build_group(cases: list[dict], force: bool) -> list[CaseResult]:
 def clean_partial() -> None:
     """Remove temporary directories an interrupted build left behind: those whose writer (the pid
     that ends their name) is gone, so a second build running into the same out/ is left alone."""
-    for root in (scene_root(), objects_root()):
+    for root in (paths.scene_root(), paths.objects_root()):
         if root.is_dir():
             # .staging-*: the geometry pipeline's folder for a deformed object in progress
             for tmp in [p for pattern in (".tmp-*", ".old-*", ".staging-*") for p in root.rglob(pattern)]:
@@ -315,15 +288,15 @@ def build(cases: list[dict], jobs: int = 1, force: bool = False, progress: bool 
 
 def built_case(case_id: str) -> dict:
     """Paths of a built case; registers its generated objects with LIBERO."""
-    d = case_dir(case_id)
-    meta_path = d / META
+    d = paths.scene_case_dir(case_id)
+    meta_path = d / paths.SCENE_META
     if not meta_path.is_file():
         raise VProError(f"case {case_id}: not built (no {meta_path}); run `vpro build --select {case_id}`")
     meta = json.loads(meta_path.read_text())
     from vpro_assets.objects.registry import register_mjcf_object
 
     for name, info in meta.get("generated_objects", {}).items():
-        register_mjcf_object(name, objects_root() / name / f"{name}.xml", template=info.get("template"))
+        register_mjcf_object(name, paths.objects_root() / name / f"{name}.xml", template=info.get("template"))
     bddl = next(p for p in meta["files"] if p.endswith(".bddl"))
     init = next(p for p in meta["files"] if p.endswith(".pruned_init"))
     return {"dir": d, "bddl": d / bddl, "init_states": d / init, "init_states_npz": d / "init_states.npz",

@@ -18,7 +18,8 @@ import numpy as np
 from vpro_assets.libero.init_states import read_init_states
 from vpro_assets.scene import bddl_doc
 from vpro_assets.scene import sim
-from vpro_assets.scene.build import built_case, objects_root
+from vpro_assets.core import paths
+from vpro_assets.scene.build import built_case
 from vpro_assets.scene.init_gen import drift
 
 log = logging.getLogger(__name__)
@@ -58,7 +59,7 @@ def validate_case(case: dict) -> Validation:
         problems.append(str(exc))
     for name in found["meta"].get("generated_objects", {}):
         try:
-            mujoco.MjModel.from_xml_path(str(objects_root() / name / f"{name}.xml"))
+            mujoco.MjModel.from_xml_path(str(paths.objects_root() / name / f"{name}.xml"))
         except Exception as exc:
             problems.append(f"generated object {name} does not compile: {exc}")
     try:
