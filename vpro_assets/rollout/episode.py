@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Optional
@@ -64,43 +65,106 @@ def _pid(policy) -> str:
     return str(getattr(policy, "policy_id", type(policy).__name__))
 
 
+class EpisodeSession:
+    """One episode of one case, driven step by step: the case's env, the seeded reset, the wait
+    steps, the step limit, the success check and the perturbed views. `run_episode` (`vpro eval`)
+    and outside harnesses that own the loop (`vpro_assets.integrations.vla_eval`) both run their
+    episodes through it, so an episode is the same whoever asks for the actions.
+
+        session = EpisodeSession(case, trial, settings)   # checks the case can run here
+        obs = session.start()                             # env, reset, wait steps
+        while not session.finished:
+            images = session.policy_images(obs)           # what the policy sees (raw frame)
+            obs = session.step(action)
+        row_fields = session.result()                     # then session.close()
+    """
+
+    def __init__(self, case: dict, trial: int, settings: EpisodeSettings):
+        self.case, self.trial, self.settings = case, trial, settings
+        self.seed = int(case["trial_seeds"][trial])
+        self.limit = settings.limit(case["suite"])
+        self.instruction = prompt_of(case)
+        self.started = time.time()
+        self.cenv: Optional[CaseEnv] = None
+        self.contacts: Optional[ContactTracker] = None
+        self.t = 0  # control steps since the reset, wait steps included
+        self.steps = 0  # policy steps
+        self.success = False
+        check_available(case)
+
+    def episode_info(self) -> EpisodeInfo:
+        return EpisodeInfo(instruction=self.instruction, case_id=self.case["id"], trial=self.trial, seed=self.seed,
+                           suite=self.case["suite"], task=self.case["task"])
+
+    def start(self, on_reset: Optional[Callable[[CaseEnv], None]] = None) -> dict:
+        """Build the env, reset it to the trial's initial state, run the wait steps; the raw observation."""
+        self.cenv = env_for_case(self.case, self.trial, resolution=self.settings.resolution)
+        obs = self.cenv.reset()
+        if on_reset is not None:
+            on_reset(self.cenv)
+        self.contacts = ContactTracker(self.cenv.sim, self.cenv.task.target, _distractors(self.cenv))
+        for _ in range(self.settings.wait_steps):
+            obs, _ = self.cenv.step(NOOP_ACTION)
+            self.t += 1
+        return obs
+
+    def policy_images(self, obs: dict) -> dict:
+        """The views the policy receives now (raw bottom-up frame; None = unavailable view)."""
+        return self.cenv.policy_images(obs, self.t)
+
+    def observation(self, obs: dict, images: Optional[dict] = None) -> Observation:
+        images = self.policy_images(obs) if images is None else images
+        return Observation.from_libero(obs, self.t, self.instruction, images=images)
+
+    def step(self, action) -> dict:
+        """One policy step; the raw observation after it."""
+        obs, done = self.cenv.step(action)
+        self.t += 1
+        self.steps += 1
+        self.contacts.update(self.t)
+        if done and self.cenv.success():
+            self.success = True
+        return obs
+
+    @property
+    def finished(self) -> bool:
+        return self.success or self.steps >= self.limit
+
+    def result(self, video: Optional[str] = None) -> dict:
+        return {"success": self.success, "steps": self.steps, "seed": self.seed,
+                "phase_timeline": self.cenv.phase_timeline(), "contact": self.contacts.summary(),
+                "artifact_hashes": self.cenv.artifact_hashes, "wall_time": time.time() - self.started,
+                "video": video, "final_state": self.cenv.state_digest()}
+
+    def close(self) -> None:
+        if self.cenv is not None:
+            self.cenv.close()
+            self.cenv = None
+
+
 def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> dict:
     """Run one episode and return its row fields. Raises InfrastructureError or CaseUnavailableError."""
-    started = time.time()
-    seed = int(case["trial_seeds"][trial])
-    check_available(case)
+    session = EpisodeSession(case, trial, settings)
     if case.get("params", {}).get("requires_predicted_frames") and not getattr(policy, "predicts_frames", False):
         raise CaseUnavailableError(f"case {case['id']}: policy {_pid(policy)} does not predict frames; "
                                    "Prediction-Reality Divergence applies to frame-predicting policies only")
     # The policy first: a server that is down is found before the env is built.
-    episode = EpisodeInfo(instruction=prompt_of(case), case_id=case["id"], trial=trial, seed=seed,
-                          suite=case["suite"], task=case["task"])
     try:
-        policy.reset(episode)
+        policy.reset(session.episode_info())
     except InfrastructureError:
         raise
     except Exception as exc:
         raise InfrastructureError(f"policy {_pid(policy)}: reset raised {type(exc).__name__}: {exc}") from exc
-    cenv = env_for_case(case, trial, resolution=settings.resolution)
     frames: list[np.ndarray] = []
     try:
-        obs = cenv.reset()
-        if hasattr(policy, "bind_env"):
-            policy.bind_env(cenv)
-        contacts = ContactTracker(cenv.sim, cenv.task.target, _distractors(cenv))
-        t = 0
-        for _ in range(settings.wait_steps):
-            obs, _ = cenv.step(NOOP_ACTION)
-            t += 1
-        limit = settings.limit(case["suite"])
+        obs = session.start(on_reset=getattr(policy, "bind_env", None))
         plan: deque = deque()
-        steps, success = 0, False
-        while steps < limit:
+        while not session.finished:
             images = None
             if not plan or settings.video_dir:
-                images = cenv.policy_images(obs, t)
+                images = session.policy_images(obs)
             if not plan:
-                view = Observation.from_libero(obs, t, episode.instruction, images=images)
+                view = session.observation(obs, images)
                 try:
                     out = as_output(policy.act(view), where=f"policy {_pid(policy)}")
                 except InfrastructureError:
@@ -111,24 +175,14 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
                 n = getattr(policy, "replan_steps", None) or len(actions)
                 plan.extend(actions[:n])
                 if out.predicted_frames is not None:
-                    cenv.feed_predicted(out.predicted_frames)
+                    session.cenv.feed_predicted(out.predicted_frames)
             if settings.video_dir:
                 frames.append(_video_frame(obs, images))
-            obs, done = cenv.step(plan.popleft())
-            t += 1
-            steps += 1
-            contacts.update(t)
-            if done and cenv.success():
-                success = True
-                break
-        timeline = cenv.phase_timeline()
+            obs = session.step(plan.popleft())
         video = _write_video(settings.video_dir, case["id"], trial, frames) if settings.video_dir else None
-        return {"success": success, "steps": steps, "seed": seed, "phase_timeline": timeline,
-                "contact": contacts.summary(), "artifact_hashes": cenv.artifact_hashes,
-                "wall_time": time.time() - started, "video": video,
-                "final_state": cenv.state_digest()}
+        return session.result(video)
     finally:
-        cenv.close()
+        session.close()
 
 
 def _video_frame(obs: dict, images: Optional[dict]) -> np.ndarray:
