@@ -7,7 +7,7 @@ STAMP := $(VENV)/.vpro-installed
 VPRO := $(VENV)/bin/vpro
 HF_LIBERO := hf-libero==0.1.4
 
-.PHONY: setup run test test-slow system-packages clean-venv
+.PHONY: setup run test test-slow lint system-packages clean-venv
 
 setup: system-packages $(STAMP)
 
@@ -17,12 +17,15 @@ system-packages:
 $(STAMP): pyproject.toml Makefile
 	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install --quiet --upgrade pip wheel setuptools
-	$(VENV)/bin/pip install --quiet -e '.[test,plots]'
+	$(VENV)/bin/pip install --quiet -e '.[test,plots,lint]'
 	# LIBERO's simulation code without its training stack (torch, wandb, transformers).
 	$(VENV)/bin/pip install --quiet --no-deps $(HF_LIBERO)
 	# robosuite's own recommended step (scripts/setup_macros.py, which prompts): a private macros
 	# file equal to the defaults, so robosuite stops warning on every import.
 	$(VENV)/bin/python scripts/robosuite_private_macros.py
+	# LIBERO's config in the repository's .libero/ (never ~/.libero): `import vpro_assets` points
+	# LIBERO at it, so users' own scripts importing LIBERO are not stopped by its prompt.
+	$(VENV)/bin/python -c "from vpro_assets.libero.bridge import write_libero_config; write_libero_config()"
 	@touch $(STAMP)
 
 # The main job, end to end on a small scale (about 15 minutes on 2 cores): the catalog checked
@@ -53,6 +56,13 @@ run: setup
 	$(VPRO) eval --policy oracle $(EVAL_SAMPLE) --trials 2 --workers 2 --results $(RUN)/results.sqlite
 	$(VPRO) report $(RUN)/results.sqlite --out $(RUN)/report
 	@echo "main job done: pictures, results and report in $(RUN)/"
+
+# ruff (lint and format check), mypy, and the import layers declared in pyproject.toml.
+lint: setup
+	$(VENV)/bin/ruff check vpro_assets generators tests scripts
+	$(VENV)/bin/ruff format --check vpro_assets generators tests scripts
+	$(VENV)/bin/mypy
+	$(VENV)/bin/lint-imports
 
 test: setup
 	$(VENV)/bin/python -m pytest

@@ -2,8 +2,20 @@
 
 Importing the package is cheap: LIBERO, robosuite and renderers load only when used.
 `vpro_assets.wrap(env, case)` puts a case's observation perturbations around a fork's env.
+
+In the toolkit's own environment, importing the package also points LIBERO at the config that
+`make setup` wrote (`.libero/config.yaml` in the repository) when no `LIBERO_CONFIG_PATH` is set,
+so a user's own script that imports LIBERO afterwards is not stopped by LIBERO's stdin prompt.
+Nothing is written at import.
 """
+import os as _os
+
+from vpro_assets.core import paths as _paths
+
 __version__ = "0.1.0"
+
+if "LIBERO_CONFIG_PATH" not in _os.environ and (_paths.libero_config_dir() / "config.yaml").is_file():
+    _os.environ["LIBERO_CONFIG_PATH"] = str(_paths.libero_config_dir())
 
 
 def wrap(env, case):

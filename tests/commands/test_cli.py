@@ -76,3 +76,13 @@ def test_env_snapshot_writes_both_views(tmp_path):
     image = cv2.imread(str(out))
     assert image.shape == (96, 192, 3)
     assert image[:, :96].std() > 5 and image[:, 96:].std() > 5
+
+
+@pytest.mark.parametrize("results", ["/proc/no-such-dir/r.sqlite", "/proc/r.sqlite"])
+def test_unwritable_results_path_is_a_one_line_error(results):
+    proc = run("eval", "--policy", "noop", "--select", "libero_goal-03/normal", "--trials", "1",
+               "--results", results, "--no-progress")
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if "error" in line]
+    assert errors == [f"vpro eval: error: results database {results}: " + errors[0].split(": ", 3)[3]], proc.stderr

@@ -17,7 +17,7 @@ def test_libero_imports_without_prompt_or_home(tmp_path):
     home.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("LIBERO_CONFIG_PATH", "VPRO_LIBERO_CONFIG_DIR")}
     env.update(HOME=str(home), VPRO_LIBERO_CONFIG_DIR=str(tmp_path / "cfg"))
-    code = ("from vpro_assets import libero_bridge as b; m = b.libero(); "
+    code = ("from vpro_assets.libero import bridge as b; m = b.libero(); "
             "print(m.get_libero_path('bddl_files')); print(m.get_assets_path())")
     proc = subprocess.run([sys.executable, "-c", code], env=env, stdin=subprocess.DEVNULL,
                           capture_output=True, text=True, timeout=120)
@@ -58,3 +58,20 @@ def test_broken_initial_state_file_is_named(tmp_path):
     bad.write_bytes(b"not a zip")
     with pytest.raises(VProError, match="x.pruned_init"):
         read_init_states(bad)
+
+
+def test_a_users_script_imports_libero_after_the_toolkit_without_prompt(tmp_path):
+    """`import vpro_assets`, then LIBERO's envs directly: configured by the config `make setup` wrote,
+    nothing written by the import."""
+    from vpro_assets.core import paths
+
+    env = {k: v for k, v in os.environ.items() if k != "LIBERO_CONFIG_PATH"} | {"HOME": str(tmp_path)}
+    setup = "from vpro_assets.libero.bridge import write_libero_config; write_libero_config()"  # as `make setup`
+    subprocess.run([sys.executable, "-c", setup], env=env, check=True, timeout=120, stdin=subprocess.DEVNULL)
+    config = paths.libero_config_dir() / "config.yaml"
+    before = config.stat().st_mtime_ns, config.read_bytes()
+    code = "import vpro_assets\nfrom libero.libero.envs import OffScreenRenderEnv\nprint('ok')"
+    proc = subprocess.run([sys.executable, "-c", code], env=env, stdin=subprocess.DEVNULL,
+                          capture_output=True, text=True, timeout=300, cwd=paths.REPO_ROOT.parent)
+    assert proc.returncode == 0 and proc.stdout.strip().endswith("ok"), proc.stderr[-2000:]
+    assert (config.stat().st_mtime_ns, config.read_bytes()) == before

@@ -1,7 +1,7 @@
 """Fast checks of the rollout layer's parts: policy specs, adapters, metrics, progress, gym env."""
 from __future__ import annotations
 
-import io
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -14,7 +14,7 @@ from vpro_assets.rollout.policies.base import EpisodeInfo
 from vpro_assets.rollout.policies.base import Observation
 from vpro_assets.rollout.policies.base import PolicyOutputError
 from vpro_assets.rollout.policies.base import as_output
-from vpro_assets.rollout.progress import Progress
+from vpro_assets.commands.eval_cmd import episode_outcome, outcome_summary
 from vpro_assets.rollout.spec import make_policy, parse_openpi
 
 EP = EpisodeInfo("pick it", "libero_goal-03/normal", 1, 7, "libero_goal", "libero_goal-03")
@@ -81,13 +81,13 @@ def test_wilson_interval_and_drop():
     assert drop([r for r in rows if r["category"] == "x"], rows) == 75.0
 
 
-def test_progress_line_counts_rate_eta_and_success():
-    clock = iter([0.0, 10.0, 20.0, 20.0]).__next__
-    p = Progress(4, already=2, stream=io.StringIO(), clock=clock)
-    p.update({"status": "ok", "success": True})
-    p.update({"status": "error"})
-    line = p.line()
-    assert line.startswith("episodes 4/6 | 360/h | left 00:20 | success 100.0% of 1, 1 error(s)")
+def test_progress_postfix_counts_success_errors_and_unavailable():
+    tally = Counter()
+    for row in ({"status": "ok", "success": True}, {"status": "ok", "success": False}, {"status": "error"},
+                {"status": "unavailable"}):
+        tally.update(episode_outcome(row))
+    assert outcome_summary(tally) == "success 50.0% of 2, 1 error(s), 1 unavailable"
+    assert outcome_summary(Counter()) == "success -"
 
 
 def test_gym_env_runs_a_case(monkeypatch):

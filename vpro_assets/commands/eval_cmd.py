@@ -2,7 +2,10 @@
 from __future__ import annotations
 
 import sys
+from collections import Counter
 from pathlib import Path
+
+from tqdm import tqdm
 
 from vpro_assets.core import paths
 from vpro_assets.benchmark.catalog import load_catalog
@@ -65,9 +68,23 @@ def parse_max_steps(values: list[str]) -> tuple[int | None, dict]:
     return override, per_suite
 
 
+def episode_outcome(row: dict) -> list[str]:
+    """What one result row adds to the progress tally."""
+    status = row.get("status")
+    if status == "ok":
+        return ["ok", "success"] if row.get("success") else ["ok"]
+    return ["unavailable"] if status == "unavailable" else ["error"]
+
+
+def outcome_summary(tally: Counter) -> str:
+    """The progress bar's postfix: success so far, errors and unavailable episodes."""
+    text = f"success {100 * tally['success'] / tally['ok']:.1f}% of {tally['ok']}" if tally["ok"] else "success -"
+    text += f", {tally['error']} error(s)" if tally["error"] else ""
+    return text + (f", {tally['unavailable']} unavailable" if tally["unavailable"] else "")
+
+
 def run_eval_cmd(args) -> int:
     from vpro_assets.rollout.episode import EpisodeSettings
-    from vpro_assets.rollout.progress import Progress
     from vpro_assets.rollout.runner import run_eval
 
     if args.workers < 1:
@@ -86,18 +103,27 @@ def run_eval_cmd(args) -> int:
     options = {k: v for k, v in options.items() if v is not None}
     print(f"vpro eval: {describe(cases)} x {args.trials} trial(s), policy {args.policy}, backend {args.backend} "
           f"({args.workers} worker(s)) -> {args.results}", file=sys.stderr)
-    progress = {}
+    bars: list[tqdm] = []  # made once the runner knows how many episodes are left
+    tally: Counter = Counter()
 
     def on_plan(todo: int, skipped: int) -> None:
-        progress["p"] = Progress(todo, skipped, enabled=not args.no_progress)
+        bars.append(tqdm(total=todo + skipped, initial=skipped, desc="vpro eval", unit="episode",
+                         disable=args.no_progress, dynamic_ncols=True))
         if skipped:
-            print(f"vpro eval: {skipped} episode(s) already recorded, {todo} to run", file=sys.stderr)
+            tqdm.write(f"vpro eval: {skipped} episode(s) already recorded, {todo} to run", file=sys.stderr)
+
+    def on_row(row: dict) -> None:
+        tally.update(episode_outcome(row))
+        bars[0].set_postfix_str(outcome_summary(tally), refresh=False)
+        bars[0].update(1)
 
     summary = run_eval(cases, results=args.results, policy_spec=args.policy, policy_options=options,
                        settings=settings, trials=args.trials, run_id=args.run_id, resume=args.resume,
                        retry_errors=args.retry_errors, backend=args.backend, workers=args.workers,
                        address=args.address, retries=args.retries, retry_delay=args.retry_delay,
-                       selection=args.select, on_plan=on_plan, on_row=lambda row: progress["p"].update(row))
+                       selection=args.select, on_plan=on_plan, on_row=on_row)
+    for bar in bars:
+        bar.close()
     counts = ", ".join(f"{n} {k}" for k, n in sorted(summary.counts.items())) or "no rows"
     print(f"vpro eval: run {summary.run_id}: {summary.recorded} episode(s) recorded in {summary.elapsed:.0f} s; "
           f"rows: {counts}", file=sys.stderr)

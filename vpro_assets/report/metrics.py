@@ -6,11 +6,11 @@ rate of the same policy on the same tasks the group covers.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Callable, Iterable, Optional
 
-Z95 = 1.959963984540054
+from scipy.stats import binomtest
+
 
 
 @dataclass(frozen=True)
@@ -27,14 +27,10 @@ class Rate:
     @property
     def ci(self) -> Optional[tuple[float, float]]:
         """Wilson score interval at 95%, in percent."""
-        n = self.trials
-        if not n:
+        if not self.trials:
             return None
-        p = self.successes / n
-        denom = 1 + Z95**2 / n
-        centre = (p + Z95**2 / (2 * n)) / denom
-        half = Z95 * math.sqrt(p * (1 - p) / n + Z95**2 / (4 * n * n)) / denom
-        return 100 * max(0.0, centre - half), 100 * min(1.0, centre + half)
+        ci = binomtest(self.successes, self.trials).proportion_ci(confidence_level=0.95, method="wilson")
+        return 100 * ci.low, 100 * ci.high
 
 
 def rate(rows: Iterable[dict]) -> Rate:

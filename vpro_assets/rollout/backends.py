@@ -51,7 +51,7 @@ def _die_with_parent() -> None:
         pass
 
 
-def _worker_main(tasks, results, parent_pid: int, env: dict) -> None:
+def _worker_main(tasks, results, send_lock, parent_pid: int, env: dict) -> None:
     _die_with_parent()
     os.environ.update(env)
     import logging as _logging
@@ -67,8 +67,11 @@ def _worker_main(tasks, results, parent_pid: int, env: dict) -> None:
         if job is None:
             release_cached_envs()
             return
-        results.put(("start", (job["case"]["id"], job["trial"]), os.getpid()))
-        results.put(("row", execute_job(job), os.getpid()))
+        with send_lock:
+            results.send(("start", (job["case"]["id"], job["trial"]), os.getpid()))
+        row = execute_job(job)
+        with send_lock:
+            results.send(("row", row, os.getpid()))
 
 
 def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
@@ -77,16 +80,19 @@ def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
         return
     workers = max(1, min(workers, len(jobs)))
     ctx = mp.get_context("spawn")
-    # Results through a SimpleQueue: its put writes to the pipe at once (no feeder thread), so the
-    # "start" note of a worker that crashes a moment later is never lost.
-    tasks, results = ctx.Queue(), ctx.SimpleQueue()
+    # Results through one pipe that workers write to under a lock: `send` writes at once (a Queue
+    # would hand it to a feeder thread), so the "start" note of a worker that crashes a moment later
+    # is never lost, and the parent can wait on it with a timeout (`poll`) to notice dead workers.
+    tasks = ctx.Queue()
+    results, results_writer = ctx.Pipe(duplex=False)
+    send_lock = ctx.Lock()
     by_key = {(j["case"]["id"], j["trial"]): j for j in jobs}
     for job in jobs:
         tasks.put(job)
     env = worker_env(workers)
 
     def start():
-        p = ctx.Process(target=_worker_main, args=(tasks, results, os.getpid(), env), daemon=True)
+        p = ctx.Process(target=_worker_main, args=(tasks, results_writer, send_lock, os.getpid(), env), daemon=True)
         p.start()
         return p
 
@@ -96,9 +102,9 @@ def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
     try:
         while remaining:
             try:
-                if not results._reader.poll(1.0):
+                if not results.poll(1.0):
                     raise queue.Empty
-                kind, payload, pid = results.get()
+                kind, payload, pid = results.recv()
             except queue.Empty:
                 for pid, proc in list(procs.items()):
                     if not proc.is_alive():
@@ -131,6 +137,7 @@ def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
                 proc.kill()
         tasks.cancel_join_thread()
         results.close()
+        results_writer.close()
 
 
 def run_ray(jobs: Iterable[dict], workers: int, address: Optional[str] = None) -> Iterator[dict]:
