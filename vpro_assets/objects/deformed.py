@@ -23,8 +23,8 @@ with `<name>` = `vpro_<category>_<deformation>_s<severity>_v<generator version>`
 Visual meshes keep the original texture coordinates and carry their normals through the map
 (n' = J^-T n); the collision hulls, the solid and the exports are built from the deformed solid.
 
-An object whose inputs (the source files' bytes, the parameters, the source of this pipeline's
-modules and the versions of trimesh, manifold3d, coacd, numpy, usd-core and mujoco) are unchanged
+An object whose inputs (the source files' bytes, the parameters, the pipeline's output version
+(`PIPELINE_ID`) and the versions of trimesh, manifold3d, coacd, numpy, usd-core and mujoco) are unchanged
 is not regenerated: `record.json` keeps the key of its inputs and the sha256 of every file, and is
 written last. Errors (`MeshError`, `InvalidParameterError`, `UnknownIdError`, all `VProError`)
 name the object and leave nothing behind in `out_dir` but files of other objects.
@@ -52,11 +52,14 @@ log = logging.getLogger(__name__)
 
 GENERATOR = "target_geometry"
 GENERATOR_VERSION = 1
-# Part of every object's input key, so a changed pipeline regenerates its objects. Bump it when an
-# edit changes what the pipeline writes (the lock's hashes catch a forgotten bump). Version 1 keyed
-# objects by the sha256 of the pipeline's source files instead, which made every refactor (a moved
-# module, a reformatted line) change every object's record.json, and so its recorded tree hash.
-PIPELINE_VERSION = 2
+# The pipeline's output version, part of every object's input key (field `code_sha256`), so a
+# changed pipeline regenerates its objects. Until the package was split into layers it was computed
+# from the pipeline's source files, which made every refactor (a moved module, a reformatted line)
+# change every object's record.json and so its recorded tree hash. It is now this constant: the
+# sha256 those sources had when it was frozen, so the objects in the lock keep their bytes. When an
+# edit changes what the pipeline writes, replace it with a new value (the lock's hashes catch a
+# forgotten change: `vpro build` + `vpro catalog verify --artifacts`).
+PIPELINE_ID = "77fb18ff7455813316b98e65742d527946b10dca51682a70b3832d2b17b6dcf0"
 SEVERITIES = (1, 2, 3)
 REFINE_FRACTION = 1.0 / 20.0  # meshes refined to edges under this fraction of the object's size
 COACD_SIMPLIFY_FRACTION = 1.0 / 250.0  # the solid given to coacd is simplified within this
@@ -161,7 +164,7 @@ def input_key(category: str, deformation: str, severity: int, coacd_params: Coac
         "setting": setting.id, "params": setting.param_dict, "up_axis": up_axis(category),
         "source_xml": xml_path.name, "source_sha256": content_sha256(xml_path),
         "coacd": coacd_params.to_json(), "refine_fraction": REFINE_FRACTION,
-        "coacd_simplify_fraction": COACD_SIMPLIFY_FRACTION, "versions": _versions(), "pipeline_version": PIPELINE_VERSION,
+        "coacd_simplify_fraction": COACD_SIMPLIFY_FRACTION, "versions": _versions(), "code_sha256": PIPELINE_ID,
     }
 
 
