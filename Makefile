@@ -17,7 +17,7 @@ system-packages:
 $(STAMP): pyproject.toml Makefile
 	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install --quiet --upgrade pip wheel setuptools
-	$(VENV)/bin/pip install --quiet -e '.[test,plots,lint]'
+	$(VENV)/bin/pip install --quiet -e '.[test,plots,lint,vla-eval]'
 	# LIBERO's simulation code without its training stack (torch, wandb, transformers).
 	$(VENV)/bin/pip install --quiet --no-deps $(HF_LIBERO)
 	# robosuite's own recommended step (scripts/setup_macros.py, which prompts): a private macros
