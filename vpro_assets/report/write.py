@@ -8,22 +8,27 @@ from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
 from vpro_assets.report.tables import LATEX_PREAMBLE
 from vpro_assets.report.tables import all_tables
+from vpro_assets.report.vla_eval_results import is_vla_eval_results, read_vla_eval
 from vpro_assets.rollout.store import ResultsStore
 
 
 def write_report(results: Path | str, out: Path | str, run_ids: Optional[Sequence[str]] = None,
                  plots: bool = True) -> dict:
     results, out = Path(results), Path(out)
-    if not results.is_file():
-        raise VProError(f"{results}: no such results database")
-    with ResultsStore(results) as store:
-        runs = store.runs()
-        known = {r["run_id"] for r in runs}
-        for rid in run_ids or []:
-            if rid not in known:
-                raise VProError(f"{results}: no run {rid!r} (runs: {', '.join(sorted(known)) or 'none'})")
-        chosen = [r for r in runs if not run_ids or r["run_id"] in run_ids]
-        rows = [row for r in chosen for row in store.episodes(r["run_id"])]
+    if is_vla_eval_results(results):  # a vla-eval results directory (docs/vla-eval.md)
+        runs, all_rows = read_vla_eval(results)
+    elif not results.is_file():
+        raise VProError(f"{results}: no such results database or vla-eval results directory")
+    else:
+        with ResultsStore(results) as store:
+            runs = store.runs()
+            all_rows = [row for r in runs for row in store.episodes(r["run_id"])]
+    known = {r["run_id"] for r in runs}
+    for rid in run_ids or []:
+        if rid not in known:
+            raise VProError(f"{results}: no run {rid!r} (runs: {', '.join(sorted(known)) or 'none'})")
+    chosen = [r for r in runs if not run_ids or r["run_id"] in run_ids]
+    rows = [row for row in all_rows if row["run_id"] in {r["run_id"] for r in chosen}]
     if not rows:
         raise VProError(f"{results}: no episodes recorded" + (f" in runs {', '.join(run_ids)}" if run_ids else ""))
     tables = all_tables(rows)

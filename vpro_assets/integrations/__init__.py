@@ -1,0 +1,1 @@
+"""Adapters of the toolkit to outside systems (evaluation harnesses)."""
