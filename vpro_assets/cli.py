@@ -13,11 +13,14 @@ from vpro_assets.core.errors import VProError
 
 # Modules that contribute subcommands, in the order `vpro --help` lists them.
 COMMAND_MODULES = (
-    "vpro_assets.commands.info",
+    "vpro_assets.commands.tasks_cmd",
+    "vpro_assets.commands.taxonomy_cmd",
     "vpro_assets.commands.catalog_cmd",
     "vpro_assets.commands.env_cmd",
-    "vpro_assets.commands.scene_cmd",
+    "vpro_assets.commands.build_cmd",
+    "vpro_assets.commands.validate_cmd",
     "vpro_assets.commands.pack_cmd",
+    "vpro_assets.commands.import_cmd",
     "vpro_assets.commands.eval_cmd",
     "vpro_assets.commands.report_cmd",
     "vpro_assets.commands.preview_cmd",

@@ -16,13 +16,17 @@ def add_parser(sub) -> None:
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
     p.add_argument("--run", dest="run_ids", action="append", default=[], metavar="RUN_ID", help="only these runs (repeatable)")
     p.add_argument("--no-plots", action="store_true", help="tables only")
+    p.add_argument("--pool-simulators", action="store_true",
+                   help="allow episodes from different simulators (mujoco / robosuite / hf-libero versions) in one "
+                   "report; without it such a report is refused (docs/simulator.md)")
     p.set_defaults(run=run_report)
 
 
 def run_report(args) -> int:
     from vpro_assets.report.write import write_report
 
-    written = write_report(args.results, args.out, args.run_ids or None, plots=not args.no_plots)
+    written = write_report(args.results, args.out, args.run_ids or None, plots=not args.no_plots,
+                           pool_simulators=args.pool_simulators)
     files = [written["markdown"], written["latex"], *written["plots"]]
     print("vpro report: wrote " + ", ".join(str(f) for f in files), file=sys.stderr)
     return 0

@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import importlib.util
 import os
+from importlib import metadata
 from pathlib import Path
 from types import ModuleType
 
@@ -123,3 +124,23 @@ def suite_task_names() -> dict[str, list[str]]:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return {suite: list(module.libero_task_map[suite]) for suite in SUITES}
+
+
+# The packages whose versions decide the simulated physics of a LIBERO scene (docs/simulator.md).
+SIMULATOR_PACKAGES = ("mujoco", "robosuite", "hf-libero")
+
+
+def simulator_versions() -> dict[str, str]:
+    """Installed versions of the packages that decide a scene's physics, read without importing them."""
+    versions = {}
+    for name in SIMULATOR_PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
+
+
+def simulator_label(versions: dict) -> str:
+    """One short name for a simulator: `mujoco 3.2.3 / robosuite 1.4.1 / hf-libero 0.1.4`."""
+    return " / ".join(f"{name} {versions.get(name, '?')}" for name in SIMULATOR_PACKAGES)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import atexit
+import importlib
 import logging
 import weakref
 from contextlib import contextmanager
@@ -21,12 +22,21 @@ DEFAULT_RESOLUTION = 256
 NOOP_ACTION = np.array([0, 0, 0, 0, 0, 0, -1], dtype=np.float64)
 
 
-def make_env(task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, bddl_file: str | None = None, **kwargs):
-    """LIBERO's own `OffScreenRenderEnv` for a task (or another BDDL file of the same task)."""
+def make_env(task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, bddl_file: str | None = None,
+             render: bool = True, **kwargs):
+    """LIBERO's own `OffScreenRenderEnv` for a task (or another BDDL file of the same task).
+
+    `render=False`: LIBERO's `ControlEnv` without an offscreen renderer or camera observations,
+    the same physics (the settle measurement checks that the states agree) at no render cost."""
     if not isinstance(resolution, int) or not 16 <= resolution <= 2048:
         raise InvalidParameterError(f"resolution must be an integer in 16..2048, got {resolution!r}")
     envs = libero_bridge.libero_envs()
     bddl = bddl_file or str(libero_bridge.bddl_path(task.suite, task.name))
+    if not render:
+        log.info("building %s (%s) without rendering", task.key, bddl)
+        control_env = importlib.import_module("libero.libero.envs.env_wrapper").ControlEnv
+        return control_env(bddl_file_name=bddl, has_renderer=False, has_offscreen_renderer=False,
+                           use_camera_obs=False, camera_names=list(CAMERAS), **kwargs)
     log.info("building %s (%s) at %dx%d", task.key, bddl, resolution, resolution)
     env = envs.OffScreenRenderEnv(
         bddl_file_name=bddl, camera_heights=resolution, camera_widths=resolution, camera_names=list(CAMERAS), **kwargs

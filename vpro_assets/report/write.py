@@ -6,14 +6,28 @@ from typing import Optional, Sequence
 
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
+from vpro_assets.libero.bridge import SIMULATOR_PACKAGES
+from vpro_assets.libero.bridge import simulator_label
 from vpro_assets.report.tables import LATEX_PREAMBLE
 from vpro_assets.report.tables import all_tables
 from vpro_assets.report.vla_eval_results import is_vla_eval_results, read_vla_eval
 from vpro_assets.rollout.store import ResultsStore
 
 
+def simulators_of(rows: Sequence[dict], runs: Sequence[dict]) -> dict[str, int]:
+    """Episode count per simulator label; rows without one (schema 1) take their run's versions."""
+    run_versions = {r["run_id"]: r["versions"] for r in runs}
+    counts: dict[str, int] = {}
+    for row in rows:
+        versions = row.get("simulator") or {k: v for k, v in run_versions.get(row["run_id"], {}).items()
+                                             if k in SIMULATOR_PACKAGES}
+        label = simulator_label(versions) if versions else "simulator not recorded"
+        counts[label] = counts.get(label, 0) + 1
+    return counts
+
+
 def write_report(results: Path | str, out: Path | str, run_ids: Optional[Sequence[str]] = None,
-                 plots: bool = True) -> dict:
+                 plots: bool = True, pool_simulators: bool = False) -> dict:
     results, out = Path(results), Path(out)
     if is_vla_eval_results(results):  # a vla-eval results directory (docs/vla-eval.md)
         runs, all_rows = read_vla_eval(results)
@@ -31,8 +45,16 @@ def write_report(results: Path | str, out: Path | str, run_ids: Optional[Sequenc
     rows = [row for row in all_rows if row["run_id"] in {r["run_id"] for r in chosen}]
     if not rows:
         raise VProError(f"{results}: no episodes recorded" + (f" in runs {', '.join(run_ids)}" if run_ids else ""))
+    simulators = simulators_of(rows, chosen)
+    if len(simulators) > 1 and not pool_simulators:
+        raise VProError(f"{results}: the episodes come from {len(simulators)} simulators ("
+                        + "; ".join(f"{label}: {n} episode(s)" for label, n in sorted(simulators.items()))
+                        + "); choose runs of one with --run, or pool them with --pool-simulators")
     tables = all_tables(rows)
     header = ["# LIBERO-VPro report", "", f"Results: `{results}`; {len(rows)} episode row(s) from {len(chosen)} run(s):", ""]
+    for label, n in sorted(simulators.items()):
+        header.append(f"- simulator: {label} ({n} episode(s))" + (" POOLED with other simulators (--pool-simulators)"
+                                                                    if len(simulators) > 1 else ""))
     for r in chosen:
         s = r["settings"]
         header.append(f"- `{r['run_id']}`: policy `{r['policy_id']}` ({r['policy_spec']}), {r['trials']} trial(s)/case, "

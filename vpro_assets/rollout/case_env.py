@@ -227,8 +227,9 @@ def check_available(case: Mapping) -> None:
 
 
 def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs: Optional[dict] = None,
-                 reuse: bool = True) -> CaseEnv:
-    """Build the environment of one trial of one case (see the module docstring)."""
+                 reuse: bool = True, render: bool = True) -> CaseEnv:
+    """Build the environment of one trial of one case (see the module docstring). `render=False`:
+    the same physics without a renderer or camera observations (no perturbation wrapper then)."""
     task = get_task(case["task"])
     rows = case.get("init_states", {}).get("rows") or list(range(10))
     if not 0 <= trial < len(rows):
@@ -253,17 +254,18 @@ def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs
     if not 0 <= row < len(states):
         raise VProError(f"case {case['id']}: initial-state row {row} out of range ({len(states)} rows in {init_path})")
     hashes = {"bddl": sha256_file(bddl), "init_states": sha256_file(init_path), "init_row": row}
-    key = (bddl, resolution, repr(sorted((env_kwargs or {}).items()))) if reuse else None
+    key = (bddl, resolution, render, repr(sorted((env_kwargs or {}).items()))) if reuse else None
     env = _take_cached_env(key) if reuse else None
     try:
         if env is None:
-            env = make_env(task, resolution, bddl_file=bddl if level == "scene" else None, **(env_kwargs or {}))
+            env = make_env(task, resolution, bddl_file=bddl if level == "scene" else None, render=render,
+                           **(env_kwargs or {}))
     except VProError:
         raise
     except Exception as exc:
         raise SimulatorError(f"case {case['id']}: building the env failed ({type(exc).__name__}: {exc})") from exc
     wrapper = None
-    if wrapper_module is not None:
+    if wrapper_module is not None and render:
         try:
             wrapper = _make_wrapper(wrapper_module, env, case, trial, resolution)
         except Exception:

@@ -18,6 +18,7 @@ import time
 import traceback
 
 from vpro_assets.core.errors import VProError
+from vpro_assets.libero.bridge import simulator_versions
 from vpro_assets.rollout.case_env import CaseUnavailableError
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode
 from vpro_assets.rollout.policies.base import InfrastructureError
@@ -62,7 +63,7 @@ def base_row(job: dict) -> dict:
             "dimension": None if normal else case.get("dimension"),
             "category": "normal" if normal else case.get("category"), "setting": case.get("setting"),
             "indicator": None if normal else case.get("indicator"), "level": "normal" if normal else case.get("level"),
-            "worker": f"{socket.gethostname()}:{os.getpid()}"}
+            "worker": f"{socket.gethostname()}:{os.getpid()}", "simulator": simulator_versions()}
 
 
 def execute_job(job: dict) -> dict:

@@ -13,7 +13,8 @@ Tables:
        unless ok), steps, phase_timeline JSON, contact ('target_only' | 'distractor_only' | 'both'
        | 'neither'), contact_detail JSON, wall_time, artifact_hashes JSON, error, error_kind,
        attempts, worker, finished_at, video, final_state (sha256 of the
-       simulator state at the end: a fingerprint of the trajectory, equal across backends))
+       simulator state at the end: a fingerprint of the trajectory, equal across backends),
+       simulator JSON (the worker's mujoco, robosuite and hf-libero versions; schema 2))
 """
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ from typing import Iterable, Optional
 
 from vpro_assets.core.errors import VProError
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: episodes.simulator (a schema-1 file gains the column when opened)
 STATUSES = ("ok", "error", "unavailable")
 
 _SCHEMA = """
@@ -62,6 +63,7 @@ CREATE TABLE IF NOT EXISTS episodes (
     finished_at TEXT,
     video TEXT,
     final_state TEXT,
+    simulator TEXT,
     PRIMARY KEY (run_id, case_id, trial)
 );
 CREATE INDEX IF NOT EXISTS episodes_by_category ON episodes(run_id, category, setting);
@@ -70,8 +72,8 @@ CREATE INDEX IF NOT EXISTS episodes_by_category ON episodes(run_id, category, se
 EPISODE_COLUMNS = ("run_id", "case_id", "trial", "seed", "policy_id", "suite", "task", "dimension", "category",
                    "setting", "indicator", "level", "status", "success", "steps", "phase_timeline", "contact",
                    "contact_detail", "wall_time", "artifact_hashes", "error", "error_kind", "attempts", "worker",
-                   "finished_at", "video", "final_state")
-_JSON_COLUMNS = ("phase_timeline", "contact_detail", "artifact_hashes")
+                   "finished_at", "video", "final_state", "simulator")
+_JSON_COLUMNS = ("phase_timeline", "contact_detail", "artifact_hashes", "simulator")
 
 
 def utc_now() -> str:
@@ -92,9 +94,12 @@ class ResultsStore:
             raise VProError(f"{self.path}: not a results database ({exc})") from None
         if mode.lower() != "wal":
             raise VProError(f"{self.path}: SQLite refused WAL mode (got {mode!r}); use a local file system")
-        if version not in (0, SCHEMA_VERSION):
+        if version not in (0, 1, SCHEMA_VERSION):
             raise VProError(f"{self.path}: results schema {version}, this toolkit reads schema {SCHEMA_VERSION}")
         self.db.executescript(_SCHEMA)
+        columns = {r[1] for r in self.db.execute("PRAGMA table_info(episodes)")}
+        if "simulator" not in columns:  # schema 1: rows before simulators were recorded keep NULL
+            self.db.execute("ALTER TABLE episodes ADD COLUMN simulator TEXT")
         self.db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
 
     def close(self) -> None:

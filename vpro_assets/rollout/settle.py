@@ -1,0 +1,240 @@
+"""Settled starts: the scene a policy sees in its first frame, measured without rendering.
+
+One trial is settled exactly as an episode starts (`episode.run_episode`): the case's env, seeded
+with the trial's seed, `reset()`, `set_init_state(row)`, then the 10 no-op wait steps. After
+`set_init_state` and after every wait step each movable object is checked:
+- off the table: its origin below the table top by more than TABLE_DROP_M, or outside the table's
+  footprint (scenes on the floor have no table and are not checked);
+- out of view: its origin projects outside the third-person (agentview) image;
+and at the first policy frame (after the last wait step) its speed (m/s) and spin (rad/s) are read.
+The BDDL's :init relations are evaluated twice: by LIBERO's own predicate, and geometrically where
+LIBERO's is unreliable (docs/simulator.md): `On(a, b)` between objects (LIBERO asks for b's origin
+below a's, a contact and origins within 3 cm in x-y, which a bowl stacked on a ramekin or a cookie
+box never meets), and `On(a, region)` (LIBERO's regions are the 1 cm sampling boxes of the
+placement, which the recorded initial states themselves miss by up to 1.5 cm).
+"""
+from __future__ import annotations
+
+import logging
+from typing import Mapping, Optional
+
+import mujoco
+import numpy as np
+
+from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.rollout.case_env import env_for_case
+from vpro_assets.rollout.episode import WAIT_STEPS
+
+log = logging.getLogger(__name__)
+
+TABLE_DROP_M = 0.03  # an object this far below the table top has fallen off it
+SPEED_LIMIT_M_S = 0.02  # the fastest an object may move at the first policy frame
+REGION_XY_TOL_M = 0.02  # an object may rest this far outside its 1 cm placement box
+REGION_Z_BAND_M = (-0.05, 0.10)  # its origin above the region's site (LIBERO's own band is 0.10)
+VIEW_CAMERA = "agentview"
+POSE_DECIMALS = 5  # 10 micrometres; far below every tolerance of the drift check
+
+
+def _name(model, kind, index: int) -> str:
+    return mujoco.mj_id2name(model, kind, index) or ""
+
+
+def _subtree(model, root: int) -> set[int]:
+    bodies = {root}
+    for body in range(root + 1, model.nbody):
+        if model.body_parentid[body] in bodies:
+            bodies.add(body)
+    return bodies
+
+
+def _world_box(model, data, bodies: set[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned world box of the colliding geoms of some bodies."""
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for geom in range(model.ngeom):
+        if model.geom_bodyid[geom] not in bodies or (model.geom_contype[geom] == 0 and model.geom_conaffinity[geom] == 0):
+            continue
+        corners = signs * model.geom_aabb[geom, 3:] + model.geom_aabb[geom, :3]
+        world = corners @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom]
+        lo, hi = np.minimum(lo, world.min(0)), np.maximum(hi, world.max(0))
+    return lo, hi
+
+
+def _in_view(model, data, camera: int, point: np.ndarray) -> bool:
+    """Whether a world point projects inside a camera's image (MuJoCo cameras look along -z)."""
+    local = data.cam_xmat[camera].reshape(3, 3).T @ (point - data.cam_xpos[camera])
+    if local[2] >= 0:
+        return False
+    half = np.tan(np.deg2rad(model.cam_fovy[camera]) / 2)  # square images: same extent in x and y
+    return bool(abs(local[0] / -local[2]) <= half and abs(local[1] / -local[2]) <= half)
+
+
+class _Scene:
+    """Names and ids of one LIBERO env's movable objects, articulated joints and table."""
+
+    def __init__(self, env):
+        self.inner = env.env
+        self.model, self.data = self.inner.sim.model._model, self.inner.sim.data._data
+        self.objects = {name: self.inner.obj_body_id[name] for name in self.inner.objects_dict}
+        self.joints = {}
+        for joint in range(self.model.njnt):
+            name = _name(self.model, mujoco.mjtObj.mjOBJ_JOINT, joint)
+            if self.model.jnt_type[joint] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE) \
+                    and not name.startswith(("robot0_", "gripper0_")):
+                self.joints[name] = int(self.model.jnt_qposadr[joint])
+        self.camera = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, VIEW_CAMERA)
+        table = next((n for n in self.inner.fixtures_dict if n.endswith("table")), None)
+        self.table = _world_box(self.model, self.data, _subtree(self.model, self.inner.obj_body_id[table])) if table else None
+
+    def off_table(self, pos: np.ndarray) -> bool:
+        if self.table is None:
+            return False
+        lo, hi = self.table
+        return bool(pos[2] < hi[2] - TABLE_DROP_M or not (lo[0] <= pos[0] <= hi[0] and lo[1] <= pos[1] <= hi[1]))
+
+    def velocity(self, body: int) -> tuple[float, float]:
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, body, vel, 0)
+        return float(np.linalg.norm(vel[3:])), float(np.linalg.norm(vel[:3]))
+
+    def relation(self, state: list) -> dict:
+        pred, args = state[0].lower(), state[1:]
+        libero = bool(self.inner._eval_predicate(state))
+        geometric: Optional[bool] = None
+        if pred == "on" and len(args) == 2 and args[0] in self.objects:
+            a, b = args
+            if b in self.inner.obj_body_id and b not in self.inner.object_sites_dict:
+                geometric = self._on_object(a, b)
+            elif b in self.inner.object_sites_dict:
+                geometric = self._on_region(a, b)
+        return {"relation": " ".join(state), "libero": libero, "geometric": geometric,
+                "holds": libero if geometric is None else geometric}
+
+    def _on_object(self, a: str, b: str) -> bool:
+        """a touches b, a's centre of mass is above b's, a's origin is over b's footprint."""
+        ia, ib = self.inner.obj_body_id[a], self.inner.obj_body_id[b]
+        lo, hi = _world_box(self.model, self.data, _subtree(self.model, ib))
+        pos = self.data.xpos[ia]
+        touching = self.inner.check_contact(self.inner.get_object(a), self.inner.get_object(b))
+        return bool(touching and self.data.xipos[ia][2] > self.data.xipos[ib][2]
+                    and lo[0] <= pos[0] <= hi[0] and lo[1] <= pos[1] <= hi[1])
+
+    def _on_region(self, a: str, region: str) -> bool:
+        site = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, region)
+        size = np.asarray(self.inner.object_sites_dict[region].size, dtype=np.float64)
+        delta = self.data.site_xmat[site].reshape(3, 3) @ (self.data.xpos[self.objects[a]] - self.data.site_xpos[site])
+        return bool(np.all(np.abs(delta[:2]) <= size[:2] + REGION_XY_TOL_M)
+                    and REGION_Z_BAND_M[0] <= delta[2] - size[2] <= REGION_Z_BAND_M[1])
+
+
+def settle_trial(case: Mapping, trial: int, wait_steps: int = WAIT_STEPS) -> dict:
+    """Settle one trial of one case and measure it (module docstring). JSON-ready."""
+    cenv = env_for_case(case, trial, render=False, reuse=True)
+    try:
+        cenv.reset()
+        scene = _Scene(cenv.env)
+        left_table = {name: False for name in scene.objects}
+        out_of_view = {name: 0 for name in scene.objects}
+        for step in range(wait_steps + 1):
+            if step:
+                cenv.step(NOOP_ACTION)
+            for name, body in scene.objects.items():
+                pos = scene.data.xpos[body]
+                left_table[name] |= scene.off_table(pos)
+                out_of_view[name] += not _in_view(scene.model, scene.data, scene.camera, pos)
+        objects = {}
+        for name, body in scene.objects.items():
+            speed, spin = scene.velocity(body)
+            objects[name] = {
+                "pose": [round(float(v), POSE_DECIMALS) + 0.0 for v in (*scene.data.xpos[body], *scene.data.xquat[body])],
+                "speed": round(speed, 6), "spin": round(spin, 6), "left_table": left_table[name],
+                "out_of_view": not _in_view(scene.model, scene.data, scene.camera, scene.data.xpos[body]),
+                "out_of_view_steps": out_of_view[name]}
+        joints = {name: round(float(scene.data.qpos[adr]), POSE_DECIMALS) + 0.0 for name, adr in scene.joints.items()}
+        relations = [scene.relation(list(state)) for state in scene.inner.parsed_problem["initial_state"]]
+        return {"case": case["id"], "trial": trial, "seed": int(case["trial_seeds"][trial]),
+                "inputs": dict(cenv.artifact_hashes), "wait_steps": wait_steps,
+                "objects": objects, "joints": joints, "relations": relations}
+    finally:
+        cenv.close()
+
+
+def trial_problems(record: Mapping, speed_limit: float = SPEED_LIMIT_M_S) -> list[str]:
+    """What is wrong with a settled start, one phrase each (empty: a clean start)."""
+    problems = []
+    for name, obj in record["objects"].items():
+        if obj["left_table"]:
+            problems.append(f"{name} off the table")
+        if obj["out_of_view"]:
+            problems.append(f"{name} out of view at the first frame")
+        elif obj["out_of_view_steps"]:
+            problems.append(f"{name} out of view for {obj['out_of_view_steps']} wait step(s)")
+        if obj["speed"] > speed_limit:
+            problems.append(f"{name} moving at {obj['speed']:.3f} m/s")
+    problems += [f"not ({r['relation']})" for r in record["relations"] if not r["holds"]]
+    return problems
+
+
+def _tilt_deg(quat_a, quat_b) -> float:
+    """Angle between the bodies' up axes, in degrees."""
+    ups = []
+    for quat in (quat_a, quat_b):
+        quat = np.asarray(quat, dtype=np.float64)
+        up = np.zeros(3)
+        mujoco.mju_rotVecQuat(up, np.array([0.0, 0.0, 1.0]), quat / np.linalg.norm(quat))  # poses are rounded
+        ups.append(up)
+    return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(ups[0], ups[1])), ups[0] @ ups[1])))
+
+
+def pose_difference(a: Mapping, b: Mapping) -> dict:
+    """Largest object displacement (cm, with its object), tilt change (deg) and joint change between
+    two settled records of the same trial (`objects` with `pose`, `joints`)."""
+    worst = {"displacement_cm": 0.0, "object": None, "tilt_deg": 0.0, "tilt_object": None,
+             "joint_change": 0.0, "joint": None, "missing": []}
+    for name, obj in a["objects"].items():
+        other = b["objects"].get(name)
+        if other is None:
+            worst["missing"].append(name)
+            continue
+        pa, pb = np.asarray(obj["pose"]), np.asarray(other["pose"])
+        moved = float(np.linalg.norm(pa[:3] - pb[:3]) * 100)
+        tilt = _tilt_deg(pa[3:], pb[3:])
+        if moved > worst["displacement_cm"]:
+            worst["displacement_cm"], worst["object"] = moved, name
+        if tilt > worst["tilt_deg"]:
+            worst["tilt_deg"], worst["tilt_object"] = tilt, name
+    for name, value in a["joints"].items():
+        change = abs(value - b["joints"].get(name, value))
+        if change > worst["joint_change"]:
+            worst["joint_change"], worst["joint"] = change, name
+    worst["missing"] += [name for name in b["objects"] if name not in a["objects"]]
+    return worst
+
+
+def first_frames(case: Mapping, trial: int, recorded: Mapping, resolution: int = 256,
+                 wait_steps: int = WAIT_STEPS) -> tuple[np.ndarray, np.ndarray]:
+    """The third-person first frame (upright) of a trial as it settles now, and the same frame with
+    the objects and joints put where a fingerprint recorded them (`objects`: name -> pose, `joints`)."""
+    cenv = env_for_case(case, trial, resolution=resolution, reuse=False)
+    try:
+        obs = cenv.reset()
+        for _ in range(wait_steps):
+            obs, _ = cenv.step(NOOP_ACTION)
+        current = np.asarray(obs["agentview_image"])[::-1].copy()
+        inner = cenv.env.env
+        model = inner.sim.model._model
+        state = np.asarray(cenv.env.get_sim_state(), dtype=np.float64).copy()  # time, qpos, qvel
+        for name, pose in recorded["objects"].items():
+            joints = [j for j in inner.get_object(name).joints
+                      if model.jnt_type[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j)] == mujoco.mjtJoint.mjJNT_FREE]
+            if joints:
+                adr = model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joints[0])]
+                state[1 + adr:1 + adr + 7] = pose
+        for name, value in recorded["joints"].items():
+            joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if joint >= 0:
+                state[1 + model.jnt_qposadr[joint]] = value
+        then = cenv.env.regenerate_obs_from_state(state)
+        return np.asarray(then["agentview_image"])[::-1].copy(), current
+    finally:
+        cenv.close()
