@@ -15,7 +15,8 @@ from vpro_assets.rollout.policies.callable import make_python_policy
 from vpro_assets.rollout.policies.openpi import OpenpiPolicy
 from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES
 
-OPENPI_OPTIONS = ("replan_steps", "connect_timeout", "infer_timeout", "resize", "api_key", "policy_id")
+OPENPI_OPTIONS = ("replan_steps", "connect_timeout", "infer_timeout", "resize", "api_key", "policy_id",
+                  "episode_reset")
 
 
 def parse_openpi(spec: str) -> tuple[str, int]:

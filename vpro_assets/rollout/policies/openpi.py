@@ -9,6 +9,12 @@ Connection and replies are bounded in time: a refused connection, a server that 
 within `infer_timeout` seconds, a text (error) reply, or actions that are not finite (H, 7) raise
 an InfrastructureError subclass; the connection is then dropped so the next episode reconnects on
 a clean stream.
+
+World-action models (`vpro_assets.rollout.policies.wam`): a server whose metadata sets
+`episode_reset` gets a reset message with the instruction at the start of every episode; one that
+sets `predicts_frames` returns predicted frames with its actions, which the adapter checks and maps
+back to LIBERO's raw frame (`predicts_frames` is then true and Prediction-Reality Divergence cases
+run). A plain openpi server sets neither and sees exactly openpi's LIBERO requests.
 """
 from __future__ import annotations
 
@@ -27,6 +33,11 @@ from vpro_assets.rollout.policies.base import PolicyOutput
 from vpro_assets.rollout.policies.base import PolicyOutputError
 from vpro_assets.rollout.policies.base import PolicyTimeoutError
 from vpro_assets.rollout.policies.base import as_output
+from vpro_assets.rollout.policies.wam import FLAG_EPISODE_RESET
+from vpro_assets.rollout.policies.wam import FLAG_PREDICTS_FRAMES
+from vpro_assets.rollout.policies.wam import decode_predicted_frames
+from vpro_assets.rollout.policies.wam import reset_message
+from vpro_assets.rollout.policies.wam import server_flag
 
 log = logging.getLogger(__name__)
 
@@ -67,11 +78,14 @@ def build_request(obs: Observation, prompt: str, size: int = RESIZE) -> dict:
 
 
 class OpenpiPolicy:
-    """openpi websocket client with bounded connect and reply times."""
+    """openpi websocket client with bounded connect and reply times. `episode_reset`: None follows
+    the server's metadata, False never sends reset messages, True always does."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8000, *, resize: int = RESIZE,
                  replan_steps: int = REPLAN_STEPS, connect_timeout: float = 10.0, infer_timeout: float = 120.0,
-                 api_key: Optional[str] = None, policy_id: Optional[str] = None):
+                 api_key: Optional[str] = None, policy_id: Optional[str] = None,
+                 episode_reset: Optional[bool] = None):
+        self.episode_reset = episode_reset
         self.host, self.port = host, int(port)
         self.resize, self.replan_steps = resize, replan_steps
         self.connect_timeout, self.infer_timeout = connect_timeout, infer_timeout
@@ -79,6 +93,7 @@ class OpenpiPolicy:
         self.policy_id = policy_id or f"openpi@{host}:{port}"
         self._ws = None
         self.server_metadata: dict = {}
+        self._flags = {FLAG_PREDICTS_FRAMES: False, FLAG_EPISODE_RESET: False}
         self._prompt = ""
 
     @property
@@ -107,6 +122,12 @@ class OpenpiPolicy:
         except Exception as exc:
             ws.close()
             raise PolicyConnectionError(f"policy server {self.uri}: bad greeting ({type(exc).__name__}: {exc})") from None
+        try:
+            self._flags = {key: server_flag(self.server_metadata, key, f"policy server {self.uri}")
+                           for key in (FLAG_PREDICTS_FRAMES, FLAG_EPISODE_RESET)}
+        except PolicyOutputError:
+            ws.close()
+            raise
         self._ws = ws
 
     def _drop(self) -> None:
@@ -117,10 +138,24 @@ class OpenpiPolicy:
                 pass
         self._ws = None
 
+    @property
+    def predicts_frames(self) -> bool:
+        """Whether the server predicts frames, from its metadata (connects if needed)."""
+        if self._ws is None:
+            self._connect()
+        return self._flags[FLAG_PREDICTS_FRAMES]
+
     def reset(self, episode: EpisodeInfo) -> None:
         self._prompt = episode.instruction
         if self._ws is None:
             self._connect()
+        send = self._flags[FLAG_EPISODE_RESET] if self.episode_reset is None else self.episode_reset
+        if send:
+            reply = self.infer(reset_message(episode))
+            if not isinstance(reply, dict):
+                self._drop()
+                raise PolicyOutputError(f"policy server {self.uri}: reply to the episode reset is a "
+                                        f"{type(reply).__name__}, expected a dict")
 
     def infer(self, request: dict) -> dict:
         from openpi_client import msgpack_numpy
@@ -147,14 +182,19 @@ class OpenpiPolicy:
             raise PolicyOutputError(f"policy server {self.uri}: undecodable reply ({exc})") from None
 
     def act(self, obs: Observation) -> PolicyOutput:
+        where = f"policy server {self.uri}"
         reply = self.infer(build_request(obs, self._prompt, self.resize))
         if not isinstance(reply, dict):
-            raise PolicyOutputError(f"policy server {self.uri}: reply is a {type(reply).__name__}, expected a dict")
-        out = as_output(reply, where=f"policy server {self.uri}")
+            raise PolicyOutputError(f"{where}: reply is a {type(reply).__name__}, expected a dict")
+        out = as_output({"actions": reply["actions"]} if "actions" in reply else reply, where=where)
         if self.replan_steps and out.actions.shape[0] < self.replan_steps:
-            raise PolicyOutputError(f"policy server {self.uri}: chunk of {out.actions.shape[0]} actions, "
+            raise PolicyOutputError(f"{where}: chunk of {out.actions.shape[0]} actions, "
                                     f"fewer than the {self.replan_steps} executed per request")
-        return out
+        if not self._flags[FLAG_PREDICTS_FRAMES]:
+            return out  # a server that does not declare predictions: any frames it sends are ignored
+        shapes = {cam: np.shape(img) for cam, img in obs.images.items() if img is not None}
+        frames = decode_predicted_frames(reply, shapes, self.resize, where)
+        return PolicyOutput(out.actions, frames)
 
     def close(self) -> None:
         self._drop()
