@@ -18,16 +18,16 @@ import sys
 import time
 from pathlib import Path
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark import taxonomy as tx
-from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.benchmark.catalog import load_catalog
-from vpro_assets.libero.env import NOOP_ACTION
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import make_env
-from vpro_assets.core.errors import VProError
 from vpro_assets.benchmark.selection import select_cases
+from vpro_assets.core import paths
+from vpro_assets.core.atomic import write_text_atomic
+from vpro_assets.core.errors import VProError
+from vpro_assets.libero.env import NOOP_ACTION, libero_init_states, make_env
 from vpro_assets.libero.tasks import get_task
+from vpro_assets.perturb import build_pipeline
+from vpro_assets.rollout.policies.scripted import PickPlaceController
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +86,6 @@ def task_for(setting: tx.Setting, preferred: str, catalog: dict) -> str:
 def _block(env, task, state, pipeline, steps: int) -> tuple[list[float], int, int, list[float]]:
     """Step times of one episode of `steps` scripted steps through `pipeline`, and the time of the
     pipeline's own work per step (`observe` plus scene edits inside the env's renders)."""
-    from vpro_assets.rollout.policies.scripted import PickPlaceController
 
     env.sim.reset()  # a soft restart: timing only, exact physics does not matter here
     pipeline.reset(0, env.sim)
@@ -111,7 +110,6 @@ def _block(env, task, state, pipeline, steps: int) -> tuple[list[float], int, in
 
 
 def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolution: int, progress=None) -> list[dict]:
-    from vpro_assets.perturb import build_pipeline
 
     catalog = load_catalog(paths.catalog_path())
     by_task: dict[str, list[tx.Setting]] = {}

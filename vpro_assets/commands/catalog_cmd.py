@@ -5,12 +5,9 @@ import json
 import sys
 from pathlib import Path
 
+from vpro_assets.benchmark.catalog import build_catalog, find_case, load_catalog, verify_catalog, write_catalog
+from vpro_assets.benchmark.lock import check_built
 from vpro_assets.core import paths
-from vpro_assets.benchmark.catalog import build_catalog
-from vpro_assets.benchmark.catalog import find_case
-from vpro_assets.benchmark.catalog import load_catalog
-from vpro_assets.benchmark.catalog import verify_catalog
-from vpro_assets.benchmark.catalog import write_catalog
 
 MAX_SHOWN = 20
 
@@ -52,7 +49,6 @@ def run_verify(args) -> int:
     path = args.catalog or paths.catalog_path()
     committed, diffs = verify_catalog(path)
     if getattr(args, "artifacts", False):
-        from vpro_assets.benchmark.lock import check_built
 
         artifact_diffs, checked, missing = check_built(committed)
         diffs = diffs + artifact_diffs

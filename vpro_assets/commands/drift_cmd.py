@@ -13,11 +13,9 @@ from vpro_assets.benchmark.selection import select_cases
 from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.images import write_png
-from vpro_assets.libero.bridge import simulator_label
-from vpro_assets.libero.bridge import simulator_versions
+from vpro_assets.libero.bridge import simulator_label, simulator_versions
 from vpro_assets.rollout import fingerprints as fp
-from vpro_assets.rollout.settle import first_frames
-from vpro_assets.rollout.settle import settle_trial
+from vpro_assets.rollout.settle import first_frames, settle_trial
 
 
 def add_parser(sub) -> None:

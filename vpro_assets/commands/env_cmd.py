@@ -4,18 +4,14 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
-from vpro_assets.benchmark.catalog import find_case
-from vpro_assets.benchmark.catalog import load_catalog
-from vpro_assets.libero.env import DEFAULT_RESOLUTION
-from vpro_assets.libero.env import NOOP_ACTION
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import task_env
-from vpro_assets.libero.env import views_side_by_side
-from vpro_assets.core.errors import UnknownIdError
-from vpro_assets.core.errors import VProError
+from vpro_assets.core.errors import UnknownIdError, VProError
 from vpro_assets.core.images import write_png
+from vpro_assets.libero.env import DEFAULT_RESOLUTION, NOOP_ACTION, libero_init_states, task_env, views_side_by_side
+from vpro_assets.libero.init_states import read_init_states
 from vpro_assets.libero.tasks import get_task
+from vpro_assets.scene.build import built_case
 
 
 def add_parser(sub) -> None:
@@ -45,8 +41,6 @@ def run_env(args) -> int:
     task, case = resolve(args.target)
     bddl = None
     if case is not None and case.get("level") == "scene":
-        from vpro_assets.libero.init_states import read_init_states
-        from vpro_assets.scene.build import built_case
 
         built = built_case(case["id"])
         bddl, states = str(built["bddl"]), read_init_states(built["init_states"])

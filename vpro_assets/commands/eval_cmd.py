@@ -7,11 +7,12 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.benchmark.selection import describe, select_cases
+from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
-from vpro_assets.benchmark.selection import describe
-from vpro_assets.benchmark.selection import select_cases
+from vpro_assets.rollout.episode import MAX_STEPS, EpisodeSettings
+from vpro_assets.rollout.runner import run_eval
 
 
 def add_parser(sub) -> None:
@@ -52,7 +53,6 @@ def add_parser(sub) -> None:
 
 
 def parse_max_steps(values: list[str]) -> tuple[int | None, dict]:
-    from vpro_assets.rollout.episode import MAX_STEPS
 
     override, per_suite = None, dict(MAX_STEPS)
     for value in values:
@@ -84,8 +84,6 @@ def outcome_summary(tally: Counter) -> str:
 
 
 def run_eval_cmd(args) -> int:
-    from vpro_assets.rollout.episode import EpisodeSettings
-    from vpro_assets.rollout.runner import run_eval
 
     if args.workers < 1:
         raise VProError(f"--workers must be at least 1, got {args.workers}")

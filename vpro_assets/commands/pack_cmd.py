@@ -4,12 +4,11 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.benchmark.selection import describe, select_cases
+from vpro_assets.core import paths
 from vpro_assets.packs.manifest import PackError
 from vpro_assets.packs.writer import verify_pack, write_pack
-from vpro_assets.benchmark.selection import describe
-from vpro_assets.benchmark.selection import select_cases
 
 
 def add_parser(sub) -> None:

@@ -13,17 +13,16 @@ from pathlib import Path
 
 import numpy as np
 
+from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
-from vpro_assets.benchmark.catalog import find_case
-from vpro_assets.benchmark.catalog import load_catalog
-from vpro_assets.libero.env import CAMERAS
-from vpro_assets.libero.env import NOOP_ACTION
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import make_env
 from vpro_assets.core.errors import VProError
-from vpro_assets.core.images import label
-from vpro_assets.core.images import write_png
+from vpro_assets.core.images import label, write_png
+from vpro_assets.libero.env import CAMERAS, NOOP_ACTION, libero_init_states, make_env
 from vpro_assets.libero.tasks import get_task
+from vpro_assets.perturb import build_pipeline
+from vpro_assets.perturb.rendering import render_rgb
+from vpro_assets.rollout.policies.scripted import PickPlaceController
+from vpro_assets.scene.gallery import write_gallery
 
 PANEL_GRAY = 96
 
@@ -58,7 +57,6 @@ def run_preview(args) -> int:
 
 
 def _gallery(catalog: dict, task: str, out: Path, resolution: int) -> int:
-    from vpro_assets.scene.gallery import write_gallery
 
     shown = write_gallery(catalog, task, out, resolution)
     if not shown:
@@ -80,9 +78,6 @@ def key_steps(case: dict) -> set[int]:
 
 
 def _case_sheet(catalog: dict, case_id: str, out: Path, resolution: int, steps: int, trial: int) -> int:
-    from vpro_assets.perturb import build_pipeline
-    from vpro_assets.perturb.rendering import render_rgb
-    from vpro_assets.rollout.policies.scripted import PickPlaceController
 
     case = find_case(catalog, case_id)
     if case.get("level") != "observation":

@@ -4,6 +4,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from vpro_assets.report.write import write_report
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser("report", help="tables and plots like the paper's from a results database",
@@ -23,7 +25,6 @@ def add_parser(sub) -> None:
 
 
 def run_report(args) -> int:
-    from vpro_assets.report.write import write_report
 
     written = write_report(args.results, args.out, args.run_ids or None, plots=not args.no_plots,
                            pool_simulators=args.pool_simulators)

@@ -24,12 +24,13 @@ import tempfile
 from pathlib import Path
 
 from vpro_assets import __version__
-from vpro_assets.libero import bridge as libero_bridge
-from vpro_assets.core import paths
-from vpro_assets.core.hashing import canonical_json, mjcf_tree_files
 from vpro_assets.benchmark.catalog import library_versions
 from vpro_assets.benchmark.taxonomy import SCENE
+from vpro_assets.core import paths
+from vpro_assets.core.hashing import canonical_json, mjcf_tree_files
+from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.tasks import libero_instruction
+from vpro_assets.objects.registry import content_sha256
 from vpro_assets.packs import archive
 from vpro_assets.packs import manifest as mf
 from vpro_assets.packs.manifest import PackError
@@ -69,7 +70,6 @@ def _case_sources(case: dict) -> dict:
 
 def _scene_sources(case: dict) -> dict:
     """Files of a built scene case, read from its build record (nothing is registered or built)."""
-    from vpro_assets.objects.registry import content_sha256
     meta_path = paths.scene_case_dir(case["id"]) / paths.SCENE_META
     if not meta_path.is_file():
         raise PackError(f"case {case['id']} changes the scene and its artifacts are not built; "

@@ -9,8 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Iterable, Optional
 
-from scipy.stats import binomtest
 
+from vpro_assets.rollout.contacts import COMPOSITIONS
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,10 @@ class Rate:
         """Wilson score interval at 95%, in percent."""
         if not self.trials:
             return None
+        # Imported here: scipy.stats takes about a second to import, which every `vpro` command
+        # would pay (the CLI imports all command modules) for what only reports use.
+        from scipy.stats import binomtest
+
         ci = binomtest(self.successes, self.trials).proportion_ci(confidence_level=0.95, method="wilson")
         return 100 * ci.low, 100 * ci.high
 
@@ -70,7 +74,6 @@ def drop(cell_rows: list[dict], all_rows: list[dict]) -> Optional[float]:
 
 
 def composition(rows: Iterable[dict]) -> dict[str, int]:
-    from vpro_assets.rollout.contacts import COMPOSITIONS
 
     counts = {k: 0 for k in COMPOSITIONS}
     for r in rows:

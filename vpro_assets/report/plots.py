@@ -11,13 +11,9 @@ from pathlib import Path
 
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.core.errors import VProError
+from vpro_assets.report.metrics import composition, group, normal_rate, rate
+from vpro_assets.report.tables import params, policies
 from vpro_assets.rollout.contacts import COMPOSITIONS
-from vpro_assets.report.metrics import composition
-from vpro_assets.report.metrics import group
-from vpro_assets.report.metrics import normal_rate
-from vpro_assets.report.metrics import rate
-from vpro_assets.report.tables import params
-from vpro_assets.report.tables import policies
 
 
 def _plt():

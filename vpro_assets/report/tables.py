@@ -15,12 +15,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 from vpro_assets.benchmark import taxonomy as tx
-from vpro_assets.report.metrics import Rate
-from vpro_assets.report.metrics import composition
-from vpro_assets.report.metrics import drop
-from vpro_assets.report.metrics import group
-from vpro_assets.report.metrics import normal_rate
-from vpro_assets.report.metrics import rate
+from vpro_assets.report.metrics import Rate, composition, drop, group, normal_rate, rate
 
 ROBUST_MARK, DIAG_MARK = "↑", "◇"
 LATEX_MARKS = {tx.ROBUSTNESS: r"$\,\uparrow$", tx.DIAGNOSTIC: r"$\,\diamond$"}

@@ -6,10 +6,9 @@ from typing import Optional, Sequence
 
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
-from vpro_assets.libero.bridge import SIMULATOR_PACKAGES
-from vpro_assets.libero.bridge import simulator_label
-from vpro_assets.report.tables import LATEX_PREAMBLE
-from vpro_assets.report.tables import all_tables
+from vpro_assets.libero.bridge import SIMULATOR_PACKAGES, simulator_label
+from vpro_assets.report.plots import write_plots
+from vpro_assets.report.tables import LATEX_PREAMBLE, all_tables
 from vpro_assets.report.vla_eval_results import is_vla_eval_results, read_vla_eval
 from vpro_assets.rollout.store import ResultsStore
 
@@ -66,7 +65,6 @@ def write_report(results: Path | str, out: Path | str, run_ids: Optional[Sequenc
     write_text_atomic(out / "tables.tex", LATEX_PREAMBLE + "\n" + "\n".join(t.latex() for t in tables))
     written = {"markdown": out / "report.md", "latex": out / "tables.tex", "plots": []}
     if plots:
-        from vpro_assets.report.plots import write_plots
 
         written["plots"] = write_plots(rows, out)
     return written

@@ -11,9 +11,9 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.rollout.policies.callable import make_python_policy
+from vpro_assets.rollout.policies.callable import load_attribute, make_python_policy
 from vpro_assets.rollout.policies.openpi import OpenpiPolicy
-from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES
+from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES, make_oracle, oracle_available
 
 OPENPI_OPTIONS = ("replan_steps", "connect_timeout", "infer_timeout", "resize", "api_key", "policy_id",
                   "episode_reset")
@@ -43,9 +43,6 @@ def make_policy(spec: str, options: Mapping[str, Any] | None = None):
 
 def check_spec(spec: str) -> None:
     """Fail fast on a spec that cannot work, without building the policy (no model is loaded)."""
-    from vpro_assets.rollout.policies.callable import load_attribute
-    from vpro_assets.rollout.policies.reference import make_oracle
-    from vpro_assets.rollout.policies.reference import oracle_available
 
     if spec in REFERENCE_POLICIES:
         if spec == "oracle" and not oracle_available():

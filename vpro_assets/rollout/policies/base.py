@@ -27,6 +27,7 @@ from typing import Mapping, Optional, Protocol, runtime_checkable
 import numpy as np
 
 from vpro_assets.core.errors import VProError
+from vpro_assets.libero.env import CAMERAS
 from vpro_assets.perturb.prediction import PolicyOutput
 
 ACTION_DIM = 7
@@ -77,7 +78,6 @@ class Observation:
 
     @classmethod
     def from_libero(cls, obs: Mapping, step: int, instruction: str, images: Mapping | None = None) -> "Observation":
-        from vpro_assets.libero.env import CAMERAS
 
         imgs = images if images is not None else {cam: obs.get(f"{cam}_image") for cam in CAMERAS}
         return cls(images=dict(imgs), eef_pos=np.asarray(obs["robot0_eef_pos"], dtype=np.float64),
