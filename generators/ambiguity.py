@@ -12,13 +12,13 @@ visual-only geometry (never collides, never moves), so both states are seen at o
 """
 from __future__ import annotations
 
-from vpro_assets.scene.context import GenContext
-from vpro_assets.scene.pose import INVERT, class_quat, quat_mul
-from vpro_assets.scene.variant import SceneVariant
+from vpro_assets.core.mjgeom import quat_mul
 from vpro_assets.scene.bddl_doc import Region
-from vpro_assets.scene.visual_only import articulation_ghost, ghost_object
-
+from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
+from vpro_assets.scene.pose import INVERT, class_quat
+from vpro_assets.scene.variant import SceneVariant
+from vpro_assets.scene.visual_only import articulation_ghost, ghost_object
 
 GHOST_REGION_HALF = 0.001  # m: the copy is a fixture at a fixed spot (LIBERO jitters within this)
 SURFACE_GAP = 0.001  # m between the table and the copy's lowest point

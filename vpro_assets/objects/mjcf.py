@@ -12,10 +12,15 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+from pathlib import Path
 
+import mujoco
 import numpy as np
+import trimesh
 
-from vpro_assets.geometry.meshes import quantize
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.geometry.meshes import MeshError, quantize
+from vpro_assets.objects.derived import referenced_files
 
 VISUAL_GROUP, COLLISION_GROUP = "1", "0"
 COLLISION_RGBA = "0.8 0.8 0.8 0.3"
@@ -50,8 +55,6 @@ def fmt_sci(values) -> str:
 
 def solid_inertial(mass: float, vertices: np.ndarray, faces: np.ndarray) -> Inertial:
     """Mass properties of a closed solid (vertices, faces) at the uniform density giving `mass`."""
-    import trimesh
-
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     volume = float(mesh.volume)
     mesh.density = mass / volume
@@ -108,22 +111,24 @@ def drop_test_xml(object_xml_path, pos=(0.0, 0.0, 0.05), quat=(1.0, 0.0, 0.0, 0.
 
     File paths are made absolute, so the world compiles from a string anywhere.
     """
-    from pathlib import Path
-
     path = Path(object_xml_path).resolve()
     src = ET.parse(path).getroot()
+    src_asset, src_body = src.find("asset"), src.find("./worldbody/body/body[@name='object']")
+    if src_asset is None or src_body is None:
+        raise MeshError(f"{path}: no <asset> or no <worldbody><body><body name='object'> (LIBERO's object layout)")
+    files = {id(element): rel for element, rel in referenced_files(src)}
     world = ET.Element("mujoco", {"model": "drop_test"})
     ET.SubElement(world, "compiler", {"angle": "radian", "inertiagrouprange": "0 0", "autolimits": "true"})
     ET.SubElement(world, "option", {"timestep": "0.002"})
     asset = ET.SubElement(world, "asset")
-    for element in src.find("asset"):
-        element = ET.fromstring(ET.tostring(element))
-        if element.get("file"):
-            element.set("file", str((path.parent / element.get("file")).resolve()))
-        asset.append(element)
+    for element in src_asset:
+        copy = ET.fromstring(ET.tostring(element))
+        if id(element) in files:
+            copy.set("file", str((path.parent / files[id(element)]).resolve()))
+        asset.append(copy)
     worldbody = ET.SubElement(world, "worldbody")
     ET.SubElement(worldbody, "geom", {"name": "table", "type": "box", "size": "0.5 0.5 0.05", "pos": "0 0 -0.05"})
-    body = ET.fromstring(ET.tostring(src.find("./worldbody/body/body[@name='object']")))
+    body = ET.fromstring(ET.tostring(src_body))
     body.set("pos", fmt_fixed(pos))
     body.set("quat", fmt_fixed(quat))
     body.insert(0, ET.Element("freejoint", {"name": "object_free"}))
@@ -150,11 +155,9 @@ class DropResult:
 def drop_test(object_xml_path, up_axis: str = "+z", clearance: float = 0.003, seconds: float = 2.0,
               window: float = 0.5) -> DropResult:
     """Drop the object (upright, `clearance` above the table top) and measure how it rests."""
-    import mujoco
-
     rotate = {"+z": (1.0, 0.0, 0.0, 0.0), "+y": (np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0)}
     if up_axis not in rotate:
-        raise ValueError(f"up axis {up_axis!r} not supported by the drop test")
+        raise InvalidParameterError(f"up axis {up_axis!r} not supported by the drop test")
     quat = np.array(rotate[up_axis])
     model = mujoco.MjModel.from_xml_string(drop_test_xml(object_xml_path, (0.0, 0.0, 1.0), quat))
     data = mujoco.MjData(model)
@@ -164,7 +167,9 @@ def drop_test(object_xml_path, up_axis: str = "+z", clearance: float = 0.003, se
                  if model.geom_bodyid[g] == body and model.geom_group[g] == 0)
     data.qpos[2] = 1.0 - lowest + clearance
     steps, window_steps = int(seconds / model.opt.timestep), int(window / model.opt.timestep)
-    speed, start = 0.0, None
+    if not 0 < window_steps <= steps:
+        raise InvalidParameterError(f"drop test window {window} s outside (0, {seconds}] s")
+    speed, start = 0.0, (data.qpos[:3].copy(), data.qpos[3:7].copy())
     for step in range(steps):
         mujoco.mj_step(model, data)
         if step == steps - window_steps:
@@ -186,8 +191,6 @@ def drop_test(object_xml_path, up_axis: str = "+z", clearance: float = 0.003, se
 
 def _geom_depth(model, data, geom: int) -> float:
     """How far the geom reaches below its centre (exact for meshes: their lowest vertex)."""
-    import mujoco
-
     if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_MESH:
         mesh = model.geom_dataid[geom]
         start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]

@@ -14,15 +14,19 @@ generated deformed targets, recoloured distractors, visual-only copies.
 """
 from __future__ import annotations
 
+import copy
 import hashlib
 import logging
 import re
 import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
-from vpro_assets.core.errors import VProError
+from vpro_assets.core.errors import UnknownIdError, VProError
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.objects.derived import referenced_files
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +50,6 @@ class ObjectIdentity:
 
 
 def _objects_dict() -> dict[str, type]:
-    from vpro_assets.libero import bridge as libero_bridge
-
     return libero_bridge.libero_envs().OBJECTS_DICT
 
 
@@ -69,10 +71,9 @@ def check_mjcf_object(xml_path: Path | str) -> ET.Element:
     missing = [s for s in REQUIRED_SITES if s not in sites]
     if missing:
         raise ObjectRegistryError(f"{xml_path}: missing placement site(s) {', '.join(missing)} under the outer body")
-    for element in root.iter():
-        file_attr = element.get("file")
-        if file_attr is not None and not (xml_path.parent / file_attr).is_file():
-            raise ObjectRegistryError(f"{xml_path}: <{element.tag}> references {file_attr!r}, which does not exist")
+    for element, rel in referenced_files(root):
+        if not (xml_path.parent / rel).is_file():
+            raise ObjectRegistryError(f"{xml_path}: <{element.tag}> references {rel!r}, which does not exist")
     return root
 
 
@@ -82,11 +83,9 @@ def content_sha256(xml_path: Path | str) -> str:
     root = check_mjcf_object(xml_path)
     digest = hashlib.sha256()
     digest.update(xml_path.read_bytes())
-    for element in root.iter():
-        file_attr = element.get("file")
-        if file_attr is not None:
-            digest.update(b"\0" + file_attr.encode() + b"\0")
-            digest.update(hashlib.sha256((xml_path.parent / file_attr).read_bytes()).digest())
+    for element, rel in referenced_files(root):
+        digest.update(b"\0" + element.get("file", "").encode() + b"\0")
+        digest.update(hashlib.sha256((xml_path.parent / rel).read_bytes()).digest())
     return digest.hexdigest()
 
 
@@ -95,8 +94,6 @@ def _placement_from(template: str | None, overrides: Mapping[str, Any]) -> dict[
     if template is not None:
         objects = _objects_dict()
         if template not in objects:
-            from vpro_assets.core.errors import UnknownIdError
-
             raise UnknownIdError("LIBERO object", template, objects)
         probe = objects[template]()  # LIBERO's objects all construct with default arguments
         for key in _PLACEMENT_KEYS + ("object_properties",):
@@ -166,9 +163,7 @@ def _still_there(identity: ObjectIdentity) -> bool:
 
 
 def _make_class(name: str, xml_path: Path, placement: dict[str, Any], identity: ObjectIdentity) -> type:
-    from robosuite.models.objects import MujocoXMLObject
-
-    import copy
+    from robosuite.models.objects import MujocoXMLObject  # robosuite loads only once LIBERO is configured
 
     def __init__(self, name: str = name, joints: Any = "template", **_ignored: Any) -> None:
         if isinstance(joints, str) and joints == "template":
@@ -192,10 +187,6 @@ def _make_class(name: str, xml_path: Path, placement: dict[str, Any], identity: 
             "_vpro_identity": identity,
         },
     )
-
-
-def is_registered(name: str) -> bool:
-    return name in _objects_dict()
 
 
 def unregister_object(name: str) -> None:

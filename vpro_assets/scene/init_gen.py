@@ -21,6 +21,7 @@ case, the trial and the reasons.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 
@@ -28,8 +29,9 @@ import numpy as np
 
 from vpro_assets.core import seeding
 from vpro_assets.core.errors import VProError
+from vpro_assets.core.mjgeom import quat_mul
 from vpro_assets.scene import sim
-from vpro_assets.scene.pose import INVERT, class_quat, quat_mul
+from vpro_assets.scene.pose import INVERT, class_quat
 from vpro_assets.scene.variant import SceneVariant
 
 log = logging.getLogger(__name__)
@@ -109,10 +111,9 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
                 neighbours = [(v["lo"], v["hi"]) for v in others.values() if v["hi"][2] > floor
                               and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))]
                 if not _clear(centre, radius, neighbours, p.margin):
-                    try:
+                    # No room nearby in a crowded layout: LIBERO's spot, if it settles.
+                    with contextlib.suppress(InitStateError):
                         xy = _ring_spot(p, xy, rng, offset, radius, neighbours)
-                    except InitStateError:
-                        pass  # no room nearby in a crowded layout: LIBERO's spot, if it settles
         elif p.take_place_of:
             was = base_layout[p.take_place_of]
             xy = (was["lo"][:2] + was["hi"][:2]) / 2 - offset  # footprint centre on the other's

@@ -15,10 +15,13 @@ import functools
 import glob
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
-from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.core.errors import VProError
+from vpro_assets.core.mjgeom import colliding, geom_corners, quat_matrix
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.scene.pose import class_quat
 
 # category, family, grasp class: the semantic table (stated data; the distractor rules read it).
 SEMANTICS = {
@@ -93,31 +96,22 @@ def movable_categories() -> list[str]:
     return sorted(cats)
 
 
-def measure_mjcf(path: str, quat=None) -> tuple[tuple[float, float, float], tuple[int, int, int], np.ndarray]:
+def measure_mjcf(path: str, quat: np.ndarray | None = None) -> tuple[tuple[float, float, float], tuple[int, int, int],
+                                                                  np.ndarray]:
     """Sorted bounding-box extents, dominant colour, and the (x, y, z) extents of the object
     turned by `quat` (w, x, y, z), e.g. LIBERO's placement rotation of its class."""
-    import mujoco
-
-    from vpro_assets.scene.pose import quat_matrix
-
     model = mujoco.MjModel.from_xml_path(path)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-    pts = []
-    colliding = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
-    for g in colliding or range(model.ngeom):  # the geometry that touches the world, as scenes measure it
-        c, h = model.geom_aabb[g][:3], model.geom_aabb[g][3:]
-        pts.append((corners * h + c) @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g])
-    pts = np.concatenate(pts)
-    extents = tuple(float(round(x, 5)) for x in sorted(pts.max(0) - pts.min(0)))
-    turned = pts @ quat_matrix(quat if quat is not None else [1, 0, 0, 0]).T
-    return extents, dominant_color(model), turned.max(0) - turned.min(0)
+    # The geometry that touches the world, as scenes measure it (visual geoms where none collide).
+    pts = geom_corners(model, data, colliding(model, range(model.ngeom)) or range(model.ngeom))
+    lo, hi = pts.min(0), pts.max(0)
+    extents = sorted(float(round(x, 5)) for x in hi - lo)
+    turned = pts @ quat_matrix(quat if quat is not None else np.array([1.0, 0.0, 0.0, 0.0])).T
+    return (extents[0], extents[1], extents[2]), dominant_color(model), turned.max(0) - turned.min(0)
 
 
 def dominant_color(model) -> tuple[int, int, int]:
-    import mujoco
-
     """Mean colour over the visual geoms: texels under the mesh's own texture coordinates (a texture
     atlas has unused padding), or the material colour where a visual geom has no texture."""
     samples = []
@@ -144,8 +138,8 @@ def dominant_color(model) -> tuple[int, int, int]:
             samples.append(np.tile((np.asarray(rgba[:3]) * 255).astype(np.uint8), (100, 1)))
     if not samples:
         return (128, 128, 128)
-    px = np.concatenate(samples).astype(np.float64)
-    return tuple(int(round(v)) for v in px.mean(0))
+    r, g, b = (int(round(v)) for v in np.concatenate(samples).astype(np.float64).mean(0))
+    return r, g, b
 
 
 def object_file(category: str) -> str:
@@ -155,15 +149,13 @@ def object_file(category: str) -> str:
     return envs.OBJECTS_DICT[category](name=f"vpro_probe_{category}").file
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def pool() -> dict[str, PoolObject]:
     out = {}
     for name in movable_categories():
         if name not in SEMANTICS:
             raise VProError(f"LIBERO object {name!r} has no entry in the distractor pool's semantic table "
                             "(vpro_assets/scene/pool.py SEMANTICS)")
-        from vpro_assets.scene.pose import class_quat
-
         probe = libero_bridge.libero_envs().OBJECTS_DICT[name](name=f"vpro_probe_{name}")
         extents, color, placed = measure_mjcf(probe.file, class_quat(probe))
         out[name] = PoolObject(name, *SEMANTICS[name], extents=extents, color=color,

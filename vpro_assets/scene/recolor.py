@@ -6,10 +6,10 @@ to the new XML (same relative paths), so the object directory is self-contained.
 """
 from __future__ import annotations
 
-import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from vpro_assets.objects.derived import write_derived
 from vpro_assets.scene.pool import object_file
 from vpro_assets.scene.variant import GeneratedObject
 
@@ -23,23 +23,13 @@ def write_recolored(source: str, color: tuple[int, int, int], directory: Path) -
     root = ET.parse(src_xml).getroot()
     rgba = " ".join(f"{c / 255:.4f}" for c in color) + " 1"
     asset = root.find("asset")
-    for tex in list(asset.findall("texture")) if asset is not None else []:
-        asset.remove(tex)
+    if asset is not None:
+        for tex in asset.findall("texture"):
+            asset.remove(tex)
     for mat in root.iter("material"):
         mat.attrib.pop("texture", None)
         mat.set("rgba", rgba)
-    directory.mkdir(parents=True, exist_ok=True)
-    for element in root.iter():
-        rel = element.get("file")
-        if rel:
-            dst = directory / rel
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(src_xml.parent / rel, dst)
-    root.set("model", recolored_name(source, color))
-    out = directory / f"{recolored_name(source, color)}.xml"
-    ET.indent(root)
-    out.write_bytes(ET.tostring(root, encoding="utf-8") + b"\n")
-    return out
+    return write_derived(root, src_xml, recolored_name(source, color), directory)
 
 
 def recolored_object(source: str, color: tuple[int, int, int]) -> GeneratedObject:
@@ -47,5 +37,4 @@ def recolored_object(source: str, color: tuple[int, int, int]) -> GeneratedObjec
         name=recolored_name(source, color),
         write=lambda directory: write_recolored(source, color, directory),
         template=source,
-        fingerprint=f"recolor-v1|{source}|{bytes(color).hex()}|{Path(object_file(source)).read_bytes().hex()[:0]}",
     )

@@ -7,8 +7,10 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
+from vpro_assets.core.mjgeom import colliding, world_aabb
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.env import NOOP_ACTION
 
@@ -59,8 +61,6 @@ class JointSlot:
 
 
 def joint_slots(env) -> dict[str, JointSlot]:
-    import mujoco
-
     m = raw(env).sim.model._model
     out = {}
     for j in range(m.njnt):
@@ -86,30 +86,23 @@ def map_state(row: np.ndarray, src: dict[str, JointSlot], dst_env) -> np.ndarray
     return np.concatenate([[row[0]], qpos, qvel])
 
 
-def object_joint(env, instance: str) -> str:
-    obj = raw(env).objects_dict[instance]
-    return obj.joints[-1]
-
-
 def body_layout(env) -> dict[str, dict]:
-    """Every object and fixture of the scene: world position and the xy box of its geoms."""
+    """Every object and fixture of the scene: world position and the box of its colliding geoms."""
     m = raw(env).sim.model._model
     d = raw(env).sim.data._data
-    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
     roots = {}
     for kind, table in (("object", raw(env).objects_dict), ("fixture", raw(env).fixtures_dict)):
         for name, obj in table.items():
             roots[raw(env).sim.model.body_name2id(obj.root_body)] = (name, kind)
-    pts: dict[int, list] = {}
-    for g in range(m.ngeom):
+    geoms: dict[int, list[int]] = {}
+    for g in colliding(m, range(m.ngeom)):
         root = int(m.body_rootid[m.geom_bodyid[g]])
-        if root in roots and (m.geom_contype[g] or m.geom_conaffinity[g]):
-            c, h = m.geom_aabb[g][:3], m.geom_aabb[g][3:]
-            pts.setdefault(root, []).append((corners * h + c) @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g])
+        if root in roots:
+            geoms.setdefault(root, []).append(g)
     out = {}
     for root, (name, kind) in roots.items():
-        p = np.concatenate(pts[root]) if root in pts else np.repeat(d.xpos[root][None], 2, axis=0)
-        out[name] = {"kind": kind, "pos": d.xpos[root].copy(), "lo": p.min(0), "hi": p.max(0)}
+        lo, hi = world_aabb(m, d, geoms[root]) if root in geoms else (d.xpos[root].copy(), d.xpos[root].copy())
+        out[name] = {"kind": kind, "pos": d.xpos[root].copy(), "lo": lo, "hi": hi}
     return out
 
 
@@ -141,8 +134,6 @@ def moving_objects(env) -> list[tuple[str, float, float]]:
 
 def penetrations(env, tol: float = PENETRATION_TOL) -> list[tuple[str, str, float]]:
     """Contacts deeper than `tol` between bodies of the scene (the robot excluded)."""
-    import mujoco
-
     m = raw(env).sim.model._model
     d = raw(env).sim.data._data
     robot_roots = {int(m.body_rootid[raw(env).sim.model.body_name2id(r.robot_model.root_body)])
@@ -167,8 +158,6 @@ def flattened_state(env) -> np.ndarray:
 def load_state(env, row: np.ndarray) -> None:
     """Load a state row from a clean slate (no solver warm start or controller history carried
     over from earlier trials), so a trial's outcome never depends on what ran before it."""
-    import mujoco
-
     sim = raw(env).sim
     mujoco.mj_resetData(sim.model._model, sim.data._data)
     env.set_init_state(row)
@@ -178,8 +167,6 @@ def load_state(env, row: np.ndarray) -> None:
 
 
 def mujoco_warnings(env) -> list[str]:
-    import mujoco
-
     d = raw(env).sim.data._data
     return [f"{mujoco.mjtWarning(i).name}: {int(d.warning[i].number)} time(s)"
             for i in range(len(d.warning)) if d.warning[i].number > 0]

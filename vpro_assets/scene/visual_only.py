@@ -8,15 +8,28 @@ recomputed for that pose so LIBERO's fixture sampler puts its lowest point on th
 from __future__ import annotations
 
 import hashlib
-import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
-from vpro_assets.scene.pose import quat_matrix
+from vpro_assets.core.errors import GeneratorError
+from vpro_assets.core.mjgeom import axis_angle_quat, quat_matrix, quat_mul, world_aabb
+from vpro_assets.objects.derived import copy_referenced_files, write_object_xml
 from vpro_assets.scene.pool import object_file
 from vpro_assets.scene.variant import GeneratedObject
+
+
+def _child(node: ET.Element, path: str, src_xml: Path) -> ET.Element:
+    found = node.find(path)
+    if found is None:
+        raise GeneratorError(f"LIBERO object file {src_xml} has no {path} (LIBERO's object layout)")
+    return found
+
+
+def _floats(text: str | None, default: str) -> np.ndarray:
+    return np.array([float(v) for v in (text or default).split()])
 
 
 def _geom_defaults(root: ET.Element) -> dict[str, dict]:
@@ -64,8 +77,6 @@ def _visual_geoms(root: ET.Element) -> None:
 
 def _extent(xml_text: str, directory: Path) -> tuple[np.ndarray, np.ndarray]:
     """World-frame box of the visual geoms of an object file (outer body at the origin)."""
-    import mujoco
-
     tmp = directory / ".probe.xml"
     tmp.write_text(xml_text)
     try:
@@ -74,10 +85,7 @@ def _extent(xml_text: str, directory: Path) -> tuple[np.ndarray, np.ndarray]:
         tmp.unlink()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-    pts = np.concatenate([(corners * model.geom_aabb[g][3:] + model.geom_aabb[g][:3]) @ data.geom_xmat[g].reshape(3, 3).T
-                          + data.geom_xpos[g] for g in range(model.ngeom)])
-    return pts.min(0), pts.max(0)
+    return world_aabb(model, data, range(model.ngeom))
 
 
 def ghost_name(source: str, label: str, quat, sink: float) -> str:
@@ -90,9 +98,9 @@ def write_ghost(source: str, name: str, quat, sink: float, directory: Path) -> P
     src_xml = Path(object_file(source))
     root = ET.parse(src_xml).getroot()
     _visual_geoms(root)
-    outer = root.find("./worldbody/body")
-    inner = outer.find("./body[@name='object']")
-    for site in list(outer.findall("site")):
+    outer = _child(root, "./worldbody/body", src_xml)
+    inner = _child(outer, "./body[@name='object']", src_xml)
+    for site in outer.findall("site"):
         outer.remove(site)
     # robosuite keeps the `object` body's children but not its own pose: the turn goes one level in.
     turned = ET.Element("body", {"name": "ghost_part", "quat": " ".join(f"{v:.6f}" for v in quat)})
@@ -103,12 +111,7 @@ def write_ghost(source: str, name: str, quat, sink: float, directory: Path) -> P
     inner.attrib.pop("pos", None)
     inner.attrib.pop("quat", None)
     inner.append(turned)
-    directory.mkdir(parents=True, exist_ok=True)
-    for element in root.iter():
-        rel = element.get("file")
-        if rel:
-            (directory / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(src_xml.parent / rel, directory / rel)
+    copy_referenced_files(root, src_xml, directory)
     lo, hi = _extent(ET.tostring(root, encoding="unicode"), directory)
     # Centre the visible geometry over the fixture's origin (LIBERO's meshes sit off their body).
     centre = (lo[:2] + hi[:2]) / 2
@@ -119,30 +122,23 @@ def write_ghost(source: str, name: str, quat, sink: float, directory: Path) -> P
                            ("horizontal_radius_site", (radius, radius, 0.0))):
         ET.SubElement(outer, "site", {"name": site_name, "pos": " ".join(f"{v:.5f}" for v in pos),
                                       "size": "0.005", "rgba": "0 0 0 0"})
-    root.set("model", name)
-    ET.indent(root)
-    out = directory / f"{name}.xml"
-    out.write_bytes(ET.tostring(root, encoding="utf-8") + b"\n")
-    return out
+    return write_object_xml(root, name, directory)
 
 
 def ghost_object(source: str, label: str, quat, sink: float) -> GeneratedObject:
     name = ghost_name(source, label, quat, sink)
     return GeneratedObject(name=name, write=lambda directory: write_ghost(source, name, quat, sink, directory),
-                           template=None, fingerprint=name)
+                           template=None)
 
 
 def _rotate_about(body: ET.Element, joint: ET.Element, angle: float) -> None:
     """Turn `body` (and what it carries) by `angle` about its hinge `joint` (axis through its pos)."""
-    from vpro_assets.scene.pose import axis_angle_quat, quat_mul
-
-    axis = np.array([float(v) for v in joint.get("axis", "0 0 1").split()])
-    jp = np.array([float(v) for v in joint.get("pos", "0 0 0").split()])
-    pos = np.array([float(v) for v in body.get("pos", "0 0 0").split()])
-    quat = np.array([float(v) for v in body.get("quat", "1 0 0 0").split()])
+    axis = _floats(joint.get("axis"), "0 0 1")
+    jp = _floats(joint.get("pos"), "0 0 0")
+    pos = _floats(body.get("pos"), "0 0 0")
+    quat = _floats(body.get("quat"), "1 0 0 0")
     turn = axis_angle_quat(axis, angle)
-    rb = quat_matrix(quat)
-    new_pos = pos + rb @ (jp - quat_matrix(turn) @ jp)
+    new_pos = pos + quat_matrix(quat) @ (jp - quat_matrix(turn) @ jp)
     body.set("pos", " ".join(f"{v:.6f}" for v in new_pos))
     body.set("quat", " ".join(f"{v:.6f}" for v in quat_mul(quat, turn)))
 
@@ -153,36 +149,24 @@ def write_articulation_ghost(source: str, name: str, joint_name: str, value: flo
     part in the other state over the real one."""
     src_xml = Path(object_file(source))
     root = ET.parse(src_xml).getroot()
-    inner = root.find("./worldbody/body/body[@name='object']")
+    inner = _child(root, "./worldbody/body/body[@name='object']", src_xml)
     moving = next((b for b in inner.iter("body") if b.find(f"joint[@name='{joint_name}']") is not None), None)
     if moving is None:
-        raise ValueError(f"{src_xml.name} has no body moved by joint {joint_name!r}")
-    joint = moving.find(f"joint[@name='{joint_name}']")
-    kept = set(id(e) for e in moving.iter())
+        raise GeneratorError(f"{src_xml.name} has no body moved by joint {joint_name!r}")
+    joint = _child(moving, f"joint[@name='{joint_name}']", src_xml)
+    kept = {id(e) for e in moving.iter()}
     for parent in inner.iter():
         for child in list(parent):
             if child.tag in ("joint", "site", "inertial") or (child.tag == "geom" and id(child) not in kept):
                 parent.remove(child)
     _visual_geoms(root)
     if joint.get("type", "hinge") == "slide":
-        axis = np.array([float(v) for v in joint.get("axis", "0 0 1").split()])
-        pos = np.array([float(v) for v in moving.get("pos", "0 0 0").split()]) + axis * value
+        pos = _floats(moving.get("pos"), "0 0 0") + _floats(joint.get("axis"), "0 0 1") * value
         moving.set("pos", " ".join(f"{v:.6f}" for v in pos))
     else:
         _rotate_about(moving, joint, value)
-    directory.mkdir(parents=True, exist_ok=True)
-    for element in root.iter():
-        rel = element.get("file")
-        if rel:
-            base = src_xml.parent / (root.find("compiler").get("meshdir", "") if root.find("compiler") is not None
-                                     and element.tag == "mesh" else "")
-            (directory / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(base / rel, directory / rel)
-    root.set("model", name)
-    ET.indent(root)
-    out = directory / f"{name}.xml"
-    out.write_bytes(ET.tostring(root, encoding="utf-8") + b"\n")
-    return out
+    copy_referenced_files(root, src_xml, directory)
+    return write_object_xml(root, name, directory)
 
 
 def articulation_ghost(source: str, joint_name: str, value: float, label: str) -> GeneratedObject:
@@ -190,4 +174,4 @@ def articulation_ghost(source: str, joint_name: str, value: float, label: str) -
     name = f"vpro_ghost_{source}_{label}_{key}"
     return GeneratedObject(name=name,
                            write=lambda directory: write_articulation_ghost(source, name, joint_name, value, directory),
-                           template=None, fingerprint=name)
+                           template=None)

@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
+from vpro_assets.core.mjgeom import colliding, world_aabb
 from vpro_assets.perturb.entities import EntityIndex
 
 log = logging.getLogger(__name__)
@@ -52,14 +53,7 @@ class Box:
 
 def world_box(model, data, geoms) -> Box:
     """World axis-aligned box around the collision geoms (visual ones where none collide)."""
-    colliding = [g for g in geoms if model.geom_contype[g] or model.geom_conaffinity[g]] or list(geoms)
-    los, his = [], []
-    for g in colliding:
-        c = data.geom_xpos[g] + data.geom_xmat[g].reshape(3, 3) @ model.geom_aabb[g][:3]
-        h = np.abs(data.geom_xmat[g].reshape(3, 3)) @ model.geom_aabb[g][3:]
-        los.append(c - h)
-        his.append(c + h)
-    return Box(np.min(los, axis=0), np.max(his, axis=0))
+    return Box(*world_aabb(model, data, colliding(model, geoms) or list(geoms)))
 
 
 class PickPlaceController:

@@ -1,0 +1,61 @@
+"""MuJoCo geometry helpers (numpy and mujoco only): world boxes of geoms, and rotations through
+mujoco's own `mju_*` quaternion functions.
+
+Every geom carries its own bounding box in its frame (`model.geom_aabb`: centre, half-sizes); its
+8 corners, carried to the world by the geom's pose in `data`, bound it there. The scene build
+measures layouts with these corners, the distractor pool measures objects, the visual-only copies
+find their extent, and the scripted policy finds what it grasps.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import mujoco
+import numpy as np
+
+# The 8 corners of the unit box [-1, 1]^3, in a fixed order.
+_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
+def colliding(model, geoms: Iterable[int]) -> list[int]:
+    """The geoms among `geoms` that can collide (contype or conaffinity set)."""
+    return [g for g in geoms if model.geom_contype[g] or model.geom_conaffinity[g]]
+
+
+def geom_corners(model, data, geoms: Iterable[int]) -> np.ndarray:
+    """World positions of the 8 box corners of each geom, stacked: shape (8 * len(geoms), 3)."""
+    pts = [(_CORNERS * model.geom_aabb[g][3:] + model.geom_aabb[g][:3]) @ data.geom_xmat[g].reshape(3, 3).T
+           + data.geom_xpos[g] for g in geoms]
+    return np.concatenate(pts) if pts else np.zeros((0, 3))
+
+
+def world_aabb(model, data, geoms: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi): the world axis-aligned box around the geoms' boxes (`geoms` not empty)."""
+    if not len(geoms):
+        raise ValueError("world_aabb needs at least one geom")
+    pts = geom_corners(model, data, geoms)
+    return pts.min(0), pts.max(0)
+
+
+# ---- rotations (MuJoCo's quaternion convention: w, x, y, z) --------------------------------------
+def quat_mul(a, b) -> np.ndarray:
+    """The quaternion product a * b (`mju_mulQuat`)."""
+    out = np.zeros(4)
+    mujoco.mju_mulQuat(out, np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
+    return out
+
+
+def quat_matrix(q) -> np.ndarray:
+    """The 3x3 rotation matrix of a quaternion, normalised first (`mju_quat2Mat`)."""
+    q = np.asarray(q, dtype=np.float64)
+    out = np.zeros(9)
+    mujoco.mju_quat2Mat(out, q / np.linalg.norm(q))
+    return out.reshape(3, 3)
+
+
+def axis_angle_quat(axis, angle: float) -> np.ndarray:
+    """The rotation by `angle` (radians) about `axis` (normalised first) (`mju_axisAngle2Quat`)."""
+    axis = np.asarray(axis, dtype=np.float64)
+    out = np.zeros(4)
+    mujoco.mju_axisAngle2Quat(out, axis / np.linalg.norm(axis), float(angle))
+    return out
