@@ -312,7 +312,7 @@ def test_bad_inputs_give_clear_errors_and_write_nothing(tmp_path, monkeypatch):
 
 
 def test_record_lists_every_file_with_its_hash(small_objects, out_dir):
-    from vpro_assets.geometry.meshes import sha256_file
+    from vpro_assets.core.hashing import sha256_file
 
     obj = small_objects[("asymmetric", 1)]
     assert obj.name == object_name(SMALL, "asymmetric", 1)

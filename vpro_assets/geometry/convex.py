@@ -12,9 +12,9 @@ import logging
 from dataclasses import asdict, dataclass
 
 import numpy as np
+import trimesh
 
-from vpro_assets.geometry.meshes import MeshError
-from vpro_assets.geometry.meshes import quantize
+from vpro_assets.geometry.meshes import MeshError, quantize
 
 log = logging.getLogger(__name__)
 
@@ -45,14 +45,14 @@ class CoacdParams:
 
 
 # Lighter search for tests and previews: same algorithm, fewer samples and iterations.
-FAST = dict(threshold=0.15, max_convex_hull=12, resolution=600, mcts_iterations=30, mcts_nodes=10, mcts_max_depth=2)
+FAST = {"threshold": 0.15, "max_convex_hull": 12, "resolution": 600, "mcts_iterations": 30, "mcts_nodes": 10,
+        "mcts_max_depth": 2}
 MIN_HULLS, MAX_HULLS = 1, 64
 
 
-def decompose(vertices: np.ndarray, faces: np.ndarray, params: CoacdParams, what: str) -> list[np.ndarray]:
-    """Convex hulls of the solid (vertices, faces): a list of hull vertex arrays, canonical order."""
-    import coacd
-    import trimesh
+def decompose(vertices: np.ndarray, faces: np.ndarray, params: CoacdParams, what: str) -> list[trimesh.Trimesh]:
+    """Convex hulls of the solid (vertices, faces), in canonical order."""
+    import coacd  # the heavy engine loads only when a decomposition runs
 
     coacd.set_log_level("error")
     mesh = coacd.Mesh(np.ascontiguousarray(vertices, np.float64), np.ascontiguousarray(faces, np.int32))
@@ -79,7 +79,8 @@ SUPPORT_TOLERANCE = 0.0005  # metres: a hull within this of the solid's bottom c
 MIN_SUPPORT_HULLS = 3
 
 
-def split_support_hulls(hulls: list, up: np.ndarray, across: tuple[np.ndarray, np.ndarray], what: str) -> list:
+def split_support_hulls(hulls: list[trimesh.Trimesh], up: np.ndarray, across: tuple[np.ndarray, np.ndarray],
+                        what: str) -> list[trimesh.Trimesh]:
     """Give a resting object several supporting hulls.
 
     MuJoCo makes one contact per convex pair (LIBERO does not enable multi-contact), so an object
@@ -89,7 +90,6 @@ def split_support_hulls(hulls: list, up: np.ndarray, across: tuple[np.ndarray, n
     the pieces are convex and cover the same volume.
     """
     import manifold3d
-    import trimesh
 
     heights = [float((np.asarray(h.vertices) @ up).min()) for h in hulls]
     bottom = min(heights)

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from vpro_assets.core.hashing import sha256_bytes
-from vpro_assets.core.hashing import sha256_file
 from vpro_assets.core.errors import VProError
+from vpro_assets.core.hashing import sha256_bytes
+from vpro_assets.core.mjgeom import quat_matrix
 
 POSITION_DECIMALS = 6  # metres: 1 micrometre
 UV_DECIMALS = 6
@@ -87,6 +87,8 @@ def read_obj_soup(path: Path | str) -> tuple[np.ndarray, np.ndarray | None]:
     import trimesh
 
     mesh = trimesh.load(str(path), force="mesh", process=False)
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise MeshError(f"{path}: not a triangle mesh ({type(mesh).__name__})")
     corners = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
     uv = getattr(mesh.visual, "uv", None)
     return corners, (None if uv is None else np.asarray(uv, np.float64)[np.asarray(mesh.faces)])
@@ -94,17 +96,6 @@ def read_obj_soup(path: Path | str) -> tuple[np.ndarray, np.ndarray | None]:
 
 def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
     return np.array([float(x) for x in text.split()], dtype=np.float64) if text else np.array(default, np.float64)
-
-
-def quat_to_matrix(quat_wxyz: np.ndarray) -> np.ndarray:
-    w, x, y, z = np.asarray(quat_wxyz, np.float64) / np.linalg.norm(quat_wxyz)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def _load_mesh_file(path: Path, scale: np.ndarray):
@@ -137,7 +128,7 @@ def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
         raise MeshError(f"{category}: cannot read its MJCF file {xml_path}: {exc}") from exc
     outer = root.find("./worldbody/body")
     body = None if outer is None else outer.find("./body[@name='object']")
-    if body is None:
+    if outer is None or body is None:
         raise MeshError(f"{category}: {xml_path} has no <body name='object'>")
     assets = root.find("asset")
     meshes = {m.get("name"): m for m in (assets.findall("mesh") if assets is not None else [])}
@@ -148,7 +139,7 @@ def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
     for geom in body.iter("geom"):
         group = geom.get("group", "0")
         if group == "0" and not collision_attrs:
-            collision_attrs = {k: geom.get(k) for k in ("solimp", "solref", "friction") if geom.get(k) is not None}
+            collision_attrs = {k: v for k in ("solimp", "solref", "friction") if (v := geom.get(k)) is not None}
         if geom.get("type") != "mesh" or group != "1":
             continue
         mesh_el = meshes.get(geom.get("mesh"))
@@ -158,7 +149,7 @@ def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
             raise MeshError(f"{category}: mesh {mesh_el.get('name')!r} uses refpos/refquat, not supported")
         corners, uv, normals = _load_mesh_file(xml_path.parent / mesh_el.get("file", ""),
                                                _floats(mesh_el.get("scale"), (1, 1, 1)))
-        rotation = quat_to_matrix(_floats(geom.get("quat"), (1, 0, 0, 0)))
+        rotation = quat_matrix(_floats(geom.get("quat"), (1, 0, 0, 0)))
         corners = corners @ rotation.T + _floats(geom.get("pos"), (0, 0, 0))
         normals = None if normals is None else normals @ rotation.T
         material, texture_file, texture_attrs = {}, None, {}
@@ -166,12 +157,12 @@ def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
         if mat_el is not None:
             material = {k: v for k, v in mat_el.attrib.items() if k not in ("name", "texture")}
             tex_el = textures.get(mat_el.get("texture"))
-            if tex_el is not None and tex_el.get("file"):
-                texture_file = (xml_path.parent / tex_el.get("file")).resolve()
+            if tex_el is not None and (tex_file := tex_el.get("file")):
+                texture_file = (xml_path.parent / tex_file).resolve()
                 texture_attrs = {k: v for k, v in tex_el.attrib.items() if k not in ("name", "file")}
-        elif geom.get("rgba"):
-            material = {"rgba": geom.get("rgba")}
-        parts.append(MeshPart(mesh_el.get("name"), corners, uv if texture_file is not None else None,
+        elif rgba := geom.get("rgba"):
+            material = {"rgba": rgba}
+        parts.append(MeshPart(mesh_el.get("name", ""), corners, uv if texture_file is not None else None,
                               material, texture_file, texture_attrs, xml_path.parent / mesh_el.get("file", ""),
                               normals))
     if not parts:

@@ -31,22 +31,26 @@ name the object and leave nothing behind in `out_dir` but files of other objects
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import os
 import shutil
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from importlib.metadata import version
 from pathlib import Path
-from typing import Mapping
 
+from vpro_assets.benchmark import taxonomy
+from vpro_assets.benchmark.taxonomy import Setting
 from vpro_assets.core.atomic import publish_dir
-from vpro_assets.geometry.convex import CoacdParams
-from vpro_assets.core.errors import InvalidParameterError
-from vpro_assets.core.errors import UnknownIdError
-from vpro_assets.geometry.meshes import MeshError
-from vpro_assets.geometry.meshes import sha256_file
+from vpro_assets.core.errors import InvalidParameterError, UnknownIdError
+from vpro_assets.core.hashing import sha256_file
 from vpro_assets.core.seeding import derive_seed
+from vpro_assets.geometry.convex import CoacdParams
+from vpro_assets.geometry.meshes import MeshError
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.objects.deformed_build import COACD_SIMPLIFY_FRACTION, REFINE_FRACTION, build_object
+from vpro_assets.objects.deformed_record import GeneratedFile, GeneratedObject
+from vpro_assets.objects.registry import content_sha256, register_mjcf_object
 
 log = logging.getLogger(__name__)
 
@@ -61,8 +65,6 @@ GENERATOR_VERSION = 1
 # forgotten change: `vpro build` + `vpro catalog verify --artifacts`).
 PIPELINE_ID = "77fb18ff7455813316b98e65742d527946b10dca51682a70b3832d2b17b6dcf0"
 SEVERITIES = (1, 2, 3)
-REFINE_FRACTION = 1.0 / 20.0  # meshes refined to edges under this fraction of the object's size
-COACD_SIMPLIFY_FRACTION = 1.0 / 250.0  # the solid given to coacd is simplified within this
 # The object's up axis in its own mesh frame once LIBERO places it (measured from LIBERO's scenes
 # with scripts/measure_up_axes.py: every target category of a geometry case).
 UP_AXES: Mapping[str, str] = {
@@ -73,59 +75,17 @@ UP_AXES: Mapping[str, str] = {
 }
 
 
-@dataclass(frozen=True)
-class GeneratedFile:
-    path: str  # relative to out_dir, '/' separated
-    sha256: str
-    role: str  # "mjcf", "urdf", "usd", "visual_mesh", "solid_mesh", "hull_mesh", "texture", "record"
-
-
-@dataclass
-class GeneratedObject:
-    name: str
-    category: str
-    deformation: str
-    severity: int
-    setting_id: str
-    out_dir: Path
-    files: tuple[GeneratedFile, ...]
-    record: dict
-    cached: bool = False
-    timings: dict[str, float] = field(default_factory=dict)  # seconds per stage (empty when cached)
-
-    def path(self, role: str) -> Path:
-        return self.out_dir / next(f.path for f in self.files if f.role == role)
-
-    @property
-    def xml_path(self) -> Path:
-        return self.path("mjcf")
-
-    @property
-    def urdf_path(self) -> Path:
-        return self.path("urdf")
-
-    @property
-    def usd_path(self) -> Path:
-        return self.path("usd")
-
-    def file_hashes(self) -> dict[str, str]:
-        """{relative path: sha256} of every file, for the catalog."""
-        return {f.path: f.sha256 for f in self.files}
-
-
 def object_name(category: str, deformation: str, severity: int) -> str:
     return f"vpro_{category}_{deformation}_s{severity}_v{GENERATOR_VERSION}"
 
 
-def geometry_setting(deformation: str, severity: int):
+def geometry_setting(deformation: str, severity: int) -> Setting:
     """The taxonomy's setting for (deformation, severity)."""
-    from vpro_assets.benchmark import taxonomy
-
     for setting in taxonomy.settings_of("target_geometry_variation"):
         params = setting.param_dict
         if params.get("deformation") == deformation and params.get("severity") == severity:
             return setting
-    known = sorted({s.param_dict["deformation"] for s in taxonomy.settings_of("target_geometry_variation")})
+    known = sorted({str(s.param_dict["deformation"]) for s in taxonomy.settings_of("target_geometry_variation")})
     if deformation not in known:
         raise InvalidParameterError(f"deformation {deformation!r} is not one of {', '.join(known)}")
     raise InvalidParameterError(f"severity {severity!r} is not one of {SEVERITIES}")
@@ -133,8 +93,6 @@ def geometry_setting(deformation: str, severity: int):
 
 def libero_object_xml(category: str) -> Path:
     """The MJCF file of LIBERO's object `category` (through LIBERO's own object class)."""
-    from vpro_assets.libero import bridge as libero_bridge
-
     objects = libero_bridge.libero_envs().OBJECTS_DICT
     if category not in objects:
         raise UnknownIdError("LIBERO object", category, objects)
@@ -150,14 +108,10 @@ def up_axis(category: str) -> str:
 
 
 def _versions() -> dict[str, str]:
-    from importlib.metadata import version
-
     return {pkg: version(pkg) for pkg in ("trimesh", "manifold3d", "coacd", "numpy", "usd-core", "mujoco")}
 
 
 def input_key(category: str, deformation: str, severity: int, coacd_params: CoacdParams, xml_path: Path) -> dict:
-    from vpro_assets.objects.registry import content_sha256
-
     setting = geometry_setting(deformation, severity)
     return {
         "generator": GENERATOR, "generator_version": GENERATOR_VERSION, "category": category,
@@ -193,12 +147,10 @@ def generate_deformed_object(
         cached = load_generated(out_dir, name, key)
         if cached is not None:
             return cached
-    from vpro_assets.objects import deformed_build as build
-
     staging = out_dir / f".staging-{name}-{os.getpid()}"
     shutil.rmtree(staging, ignore_errors=True)
     try:
-        result = build.build_object(
+        result = build_object(
             name=name, category=category, deformation=deformation, severity=severity, setting=setting,
             xml_path=xml_path, up=up_axis(category), coacd_params=coacd_params, key=key,
             staging=staging, out_dir=out_dir,
@@ -239,6 +191,4 @@ def load_generated(out_dir: Path | str, name: str, key: dict | None = None) -> G
 
 def register_generated(obj: GeneratedObject) -> type:
     """Register the object with LIBERO under its name, placed like the object it deforms."""
-    from vpro_assets.objects.registry import register_mjcf_object
-
     return register_mjcf_object(obj.name, obj.xml_path, template=obj.category)

@@ -1,0 +1,46 @@
+"""What the deformed-object pipeline returns: the object's files with their sha256, its record
+(`record.json`) and, when built rather than reused, the seconds each stage took."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class GeneratedFile:
+    path: str  # relative to out_dir, '/' separated
+    sha256: str
+    role: str  # "mjcf", "urdf", "usd", "visual_mesh", "solid_mesh", "hull_mesh", "texture", "record"
+
+
+@dataclass
+class GeneratedObject:
+    name: str
+    category: str
+    deformation: str
+    severity: int
+    setting_id: str
+    out_dir: Path
+    files: tuple[GeneratedFile, ...]
+    record: dict
+    cached: bool = False
+    timings: dict[str, float] = field(default_factory=dict)  # seconds per stage (empty when cached)
+
+    def path(self, role: str) -> Path:
+        return self.out_dir / next(f.path for f in self.files if f.role == role)
+
+    @property
+    def xml_path(self) -> Path:
+        return self.path("mjcf")
+
+    @property
+    def urdf_path(self) -> Path:
+        return self.path("urdf")
+
+    @property
+    def usd_path(self) -> Path:
+        return self.path("usd")
+
+    def file_hashes(self) -> dict[str, str]:
+        """{relative path: sha256} of every file, for the catalog."""
+        return {f.path: f.sha256 for f in self.files}
