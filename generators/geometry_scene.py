@@ -7,9 +7,8 @@ from __future__ import annotations
 
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.scene.context import GenContext
-from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
-
 from vpro_assets.scene.plugins import register
+from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
 
 def _deformed(category: str, deformation: str, severity: int) -> GeneratedObject:
@@ -19,7 +18,7 @@ def _deformed(category: str, deformation: str, severity: int) -> GeneratedObject
         name=tg.object_name(category, deformation, severity),
         # Returns the pipeline's record (xml_path, and per-stage timings the build adds up).
         write=lambda root: tg.generate_deformed_object(category, deformation, severity, root),
-        template=category, fingerprint=f"target_geometry|{category}|{deformation}|{severity}", shared=True,
+        template=category, shared=True,
     )
 
 

@@ -12,12 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vpro_assets.libero import bridge as libero_bridge
-from vpro_assets.libero.env import libero_init_states
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.seeding import TRIALS_PER_CASE
-from vpro_assets.libero.tasks import TaskRecord
-from vpro_assets.libero.tasks import get_task
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.env import libero_init_states
+from vpro_assets.libero.tasks import TaskRecord, get_task
 from vpro_assets.scene import sim
 from vpro_assets.scene.bddl_doc import BaseBDDL, read_base
 
@@ -65,10 +64,6 @@ class BaseScene:
 
     def to_region_xy(self, world_xy) -> np.ndarray:
         return np.asarray(world_xy, dtype=float) - self.workspace_offset[:2]
-
-    def footprint(self, instance: str, row: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        v = self.layouts[row][instance]
-        return v["lo"], v["hi"]
 
 
 BASE_FIXTURE_SEED = 0

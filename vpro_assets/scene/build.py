@@ -28,18 +28,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
-from vpro_assets.scene import plugins
-
-from vpro_assets.core.hashing import canonical_json, sha256_bytes
-from vpro_assets.core.hashing import sha256_file
+from vpro_assets.benchmark.catalog import library_versions
 from vpro_assets.core import paths
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import VProError
-from vpro_assets.scene import bddl_doc
-from vpro_assets.scene import sim
-from vpro_assets.scene import state_files
+from vpro_assets.core.hashing import canonical_json, sha256_bytes, sha256_file
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.tasks import get_task
+from vpro_assets.objects.registry import register_mjcf_object
+from vpro_assets.scene import bddl_doc, plugins, sim, state_files
+from vpro_assets.scene import pool as pool_mod
+from vpro_assets.scene.base_scene import BaseScene, base_scene
 from vpro_assets.scene.context import GenContext
+from vpro_assets.scene.init_gen import trial_state
+from vpro_assets.scene.variant import GeneratedObject, SceneVariant
 
 log = logging.getLogger(__name__)
 
@@ -56,16 +60,8 @@ class CaseResult:
     files: dict = field(default_factory=dict)  # relative path -> sha256
 
 
-def input_hash(case: dict, generator) -> str:
-    from vpro_assets.scene import pool as pool_mod
-
-    from vpro_assets.benchmark.catalog import library_versions
-
-    from vpro_assets.libero import bridge as libero_bridge
-    from vpro_assets.libero.tasks import get_task
-
+def input_hash(case: dict, generator: plugins.Generator) -> str:
     task = get_task(case["task"])
-
     h = hashlib.sha256()
     for part in (
         f"build-v{BUILD_VERSION}", f"{generator.name}-v{generator.version}",
@@ -99,27 +95,28 @@ def _is_current(case_id: str, key: str) -> dict | None:
     return meta
 
 
-def ensure_objects(generated, case_id: str, stages: dict | None = None) -> dict[str, Path]:
+def ensure_objects(generated: list[GeneratedObject], case_id: str, stages: dict | None = None) -> dict[str, Path]:
     """Write (once, atomically) and register the generated objects a case needs; the seconds a
     shared producer reports per stage (mesh work) are added to `stages` as `object_<stage>`."""
-    from vpro_assets.objects.registry import register_mjcf_object
-
     out = {}
     for obj in generated:
         final = paths.objects_root() / obj.name
         xml = final / f"{obj.name}.xml"
         if obj.shared:  # the producer caches, lays out and publishes its files itself
             written = obj.write(paths.objects_root())
-            xml = Path(getattr(written, "xml_path", written))
-            for stage, seconds in getattr(written, "timings", {}).items():
-                if stages is not None:
-                    stages[f"object_{stage}"] = stages.get(f"object_{stage}", 0.0) + seconds
+            if not isinstance(written, Path):
+                xml = written.xml_path
+                for stage, seconds in written.timings.items():
+                    if stages is not None:
+                        stages[f"object_{stage}"] = stages.get(f"object_{stage}", 0.0) + seconds
+            else:
+                xml = written
         elif not xml.is_file():
             tmp = paths.objects_root() / f".tmp-{obj.name}-{os.getpid()}"
             shutil.rmtree(tmp, ignore_errors=True)
             written = obj.write(tmp)
-            if written.name != xml.name:
-                raise VProError(f"case {case_id}: generated object {obj.name} wrote {written.name}, expected {xml.name}")
+            if not isinstance(written, Path) or written.name != xml.name:
+                raise VProError(f"case {case_id}: generated object {obj.name} wrote {written}, expected {xml.name}")
             publish_dir(tmp, final)
         register_mjcf_object(obj.name, xml, template=obj.template)
         out[obj.name] = xml
@@ -132,9 +129,6 @@ def _bddl_name(task) -> str:
 
 def build_case(case: dict, force: bool = False) -> CaseResult:
     """Build one scene case (or confirm it is current)."""
-    from vpro_assets.scene.base_scene import base_scene
-    from vpro_assets.scene.init_gen import trial_state
-
     started = time.perf_counter()
     cid = case["id"]
     generator = plugins.generator_for(case)
@@ -149,8 +143,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
     stages["base_scene"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    ctx = GenContext(case=case, base=base)
-    variant = generator.fn(ctx)
+    variant = generator.fn(GenContext(case=case, base=base))
     ensure_objects(variant.generated_objects, cid, stages)
     # "generate" includes the object_* stages (mesh work of generated objects).
     stages["generate"] = time.perf_counter() - t
@@ -162,7 +155,15 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
         init=variant.init)
     bddl_doc.check_variant(text, base.bddl, cid)
     stages["bddl"] = time.perf_counter() - t
+    hashes = _write_case(case, key, generator, base, variant, text, stages)
+    return CaseResult(cid, "built", time.perf_counter() - started, stages, files=hashes)
 
+
+def _write_case(case: dict, key: str, generator: plugins.Generator, base: BaseScene, variant: SceneVariant,
+                text: str, stages: dict[str, float]) -> dict[str, str]:
+    """Settle the trials' initial states in LIBERO's env of the variant and publish the case's
+    files (BDDL, initial states, meta.json) at once; return {file name: sha256}."""
+    cid = case["id"]
     tmp = paths.scene_root() / f".tmp-{cid.replace('/', '__')}-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
@@ -204,7 +205,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return CaseResult(cid, "built", time.perf_counter() - started, stages, files=hashes)
+    return hashes
 
 
 def _worker_init() -> None:
@@ -260,8 +261,6 @@ def _collect(done: list[CaseResult], results: list[CaseResult], bar) -> None:
 
 def build(cases: list[dict], jobs: int = 1, force: bool = False, progress: bool = True) -> list[CaseResult]:
     """Build scene cases; other cases in the selection are ignored (they have no scene artifacts)."""
-    from tqdm import tqdm
-
     cases = [c for c in cases if c.get("level") == "scene"]
     clean_partial()
     groups: dict[str, list[dict]] = {}
@@ -293,8 +292,6 @@ def built_case(case_id: str) -> dict:
     if not meta_path.is_file():
         raise VProError(f"case {case_id}: not built (no {meta_path}); run `vpro build --select {case_id}`")
     meta = json.loads(meta_path.read_text())
-    from vpro_assets.objects.registry import register_mjcf_object
-
     for name, info in meta.get("generated_objects", {}).items():
         register_mjcf_object(name, paths.objects_root() / name / f"{name}.xml", template=info.get("template"))
     bddl = next(p for p in meta["files"] if p.endswith(".bddl"))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,8 +23,6 @@ REGION_HALF = 0.01  # m: half-size of a region written for an added object (LIBE
 class GenContext:
     case: dict
     base: BaseScene
-    out_dir: object = None  # where generated objects are written (a Path), set by the build
-    notes: dict = field(default_factory=dict)
 
     @property
     def case_id(self) -> str:

@@ -10,16 +10,20 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
-from typing import Iterator
 
+import mujoco
 import numpy as np
+from tqdm import tqdm
 
-from vpro_assets.libero.init_states import read_init_states
-from vpro_assets.scene import bddl_doc
-from vpro_assets.scene import sim
 from vpro_assets.core import paths
-from vpro_assets.scene.build import built_case
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.init_states import read_init_states
+from vpro_assets.libero.tasks import get_task
+from vpro_assets.scene import bddl_doc, sim
+from vpro_assets.scene.build import _worker_init, built_case
 from vpro_assets.scene.init_gen import drift
 
 log = logging.getLogger(__name__)
@@ -37,11 +41,6 @@ class Validation:
 
 
 def validate_case(case: dict) -> Validation:
-    import mujoco
-
-    from vpro_assets.libero import bridge as libero_bridge
-    from vpro_assets.libero.tasks import get_task
-
     started = time.perf_counter()
     result = Validation(case["id"])
     try:
@@ -49,12 +48,29 @@ def validate_case(case: dict) -> Validation:
     except Exception as exc:
         result.problems.append(str(exc))
         return result
-    problems = result.problems
-    text = found["bddl"].read_text()
+    result.problems += _file_problems(case, found)
+    try:
+        env = sim.physics_env(str(found["bddl"]))
+    except Exception as exc:
+        result.problems.append(f"LIBERO cannot build the env from {found['bddl'].name}: {type(exc).__name__}: {exc}")
+        result.seconds = time.perf_counter() - started
+        return result
+    try:
+        result.problems += _model_problems(env, found["meta"])
+        result.problems += _state_problems(env, case, found)
+    finally:
+        env.close()
+    result.seconds = time.perf_counter() - started
+    return result
+
+
+def _file_problems(case: dict, found: dict) -> list[str]:
+    """The BDDL against the base task's; every generated object's MJCF compiles alone."""
+    problems = []
     try:
         task = get_task(case["task"])
         base_bddl = bddl_doc.read_base(libero_bridge.bddl_path(task.suite, task.name))
-        bddl_doc.check_variant(text, base_bddl, case["id"])
+        bddl_doc.check_variant(found["bddl"].read_text(), base_bddl, case["id"])
     except Exception as exc:
         problems.append(str(exc))
     for name in found["meta"].get("generated_objects", {}):
@@ -62,56 +78,59 @@ def validate_case(case: dict) -> Validation:
             mujoco.MjModel.from_xml_path(str(paths.objects_root() / name / f"{name}.xml"))
         except Exception as exc:
             problems.append(f"generated object {name} does not compile: {exc}")
+    return problems
+
+
+def _model_problems(env, meta: dict) -> list[str]:
+    """The scene's MJCF compiles again without warnings; visual-only additions cannot collide."""
+    problems = []
     try:
-        env = sim.physics_env(str(found["bddl"]))
+        model = mujoco.MjModel.from_xml_string(sim.raw(env).sim.model.get_xml())
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        warnings = [mujoco.mjtWarning(i).name for i in range(len(data.warning)) if data.warning[i].number]
+        if warnings:
+            problems.append(f"the scene MJCF compiles with MuJoCo warning(s) {', '.join(warnings)}")
     except Exception as exc:
-        problems.append(f"LIBERO cannot build the env from {found['bddl'].name}: {type(exc).__name__}: {exc}")
-        result.seconds = time.perf_counter() - started
-        return result
-    try:
-        xml = sim.raw(env).sim.model.get_xml()
-        try:
-            model = mujoco.MjModel.from_xml_string(xml)
-            data = mujoco.MjData(model)
-            mujoco.mj_forward(model, data)
-            warnings = [mujoco.mjtWarning(i).name for i in range(len(data.warning)) if data.warning[i].number]
-            if warnings:
-                problems.append(f"the scene MJCF compiles with MuJoCo warning(s) {', '.join(warnings)}")
-        except Exception as exc:
-            problems.append(f"the scene MJCF does not compile again in MuJoCo: {exc}")
-        m = sim.raw(env).sim.model._model
-        for instance in found["meta"].get("added", []):
-            fixture = sim.raw(env).fixtures_dict.get(instance)
-            if fixture is None:
-                continue  # an added movable object (a distractor)
-            root = sim.raw(env).sim.model.body_name2id(fixture.root_body)
-            touching = [g for g in range(m.ngeom) if int(m.body_rootid[m.geom_bodyid[g]]) == root
-                        and (m.geom_contype[g] or m.geom_conaffinity[g])]
-            if touching:
-                problems.append(f"visual-only {instance} has {len(touching)} geom(s) that can collide")
-        states = read_init_states(found["init_states"])
-        npz = np.load(found["init_states_npz"])["states"]
-        if not np.array_equal(states, npz):
-            problems.append("the .pruned_init and .npz initial states differ")
-        width = 1 + m.nq + m.nv
-        if states.shape != (len(case["trial_seeds"]), width):
-            problems.append(f"initial states have shape {states.shape}, expected ({len(case['trial_seeds'])}, {width})")
-        else:
-            for k, row in enumerate(states):
-                sim.place_fixtures(env, case["trial_seeds"][k])  # as the rollout places them
-                sim.load_state(env, row)
-                moved = drift(env)
-                warnings = sim.mujoco_warnings(env)
-                if moved:
-                    problems.append(f"initial state {k}: not at rest under zero actions ({'; '.join(moved[:3])})")
-                if warnings:
-                    problems.append(f"initial state {k}: MuJoCo warnings while stepping: {', '.join(warnings)}")
-                if sim.raw(env)._check_success():
-                    problems.append(f"initial state {k}: the goal is already satisfied")
-    finally:
-        env.close()
-    result.seconds = time.perf_counter() - started
-    return result
+        problems.append(f"the scene MJCF does not compile again in MuJoCo: {exc}")
+    m = sim.raw(env).sim.model._model
+    for instance in meta.get("added", []):
+        fixture = sim.raw(env).fixtures_dict.get(instance)
+        if fixture is None:
+            continue  # an added movable object (a distractor)
+        root = sim.raw(env).sim.model.body_name2id(fixture.root_body)
+        touching = [g for g in range(m.ngeom) if int(m.body_rootid[m.geom_bodyid[g]]) == root
+                    and (m.geom_contype[g] or m.geom_conaffinity[g])]
+        if touching:
+            problems.append(f"visual-only {instance} has {len(touching)} geom(s) that can collide")
+    return problems
+
+
+def _state_problems(env, case: dict, found: dict) -> list[str]:
+    """The frozen initial states: both files equal, the model's width, at rest under zero actions,
+    no MuJoCo warning, goal not already satisfied."""
+    problems = []
+    m = sim.raw(env).sim.model._model
+    states = read_init_states(found["init_states"])
+    npz = np.load(found["init_states_npz"])["states"]
+    if not np.array_equal(states, npz):
+        problems.append("the .pruned_init and .npz initial states differ")
+    width = 1 + m.nq + m.nv
+    if states.shape != (len(case["trial_seeds"]), width):
+        problems.append(f"initial states have shape {states.shape}, expected ({len(case['trial_seeds'])}, {width})")
+        return problems
+    for k, row in enumerate(states):
+        sim.place_fixtures(env, case["trial_seeds"][k])  # as the rollout places them
+        sim.load_state(env, row)
+        moved = drift(env)
+        warnings = sim.mujoco_warnings(env)
+        if moved:
+            problems.append(f"initial state {k}: not at rest under zero actions ({'; '.join(moved[:3])})")
+        if warnings:
+            problems.append(f"initial state {k}: MuJoCo warnings while stepping: {', '.join(warnings)}")
+        if sim.raw(env)._check_success():
+            problems.append(f"initial state {k}: the goal is already satisfied")
+    return problems
 
 
 def _validate_group(cases: list[dict]) -> list[Validation]:
@@ -126,12 +145,6 @@ def _validate_group(cases: list[dict]) -> list[Validation]:
 
 def validate(cases: list[dict], jobs: int = 1, progress: bool = True) -> Iterator[Validation]:
     """Validate scene cases, `jobs` processes in parallel; results come as cases finish."""
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    from tqdm import tqdm
-
-    from vpro_assets.scene.build import _worker_init
-
     with tqdm(total=len(cases), unit="case", desc="vpro validate", disable=not progress) as bar:
         if jobs <= 1:
             for case in cases:

@@ -9,9 +9,10 @@ inputs and can be unit-tested without MuJoCo.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import Protocol
 
 from vpro_assets.scene.bddl_doc import Region
 
@@ -46,16 +47,24 @@ class JointSetting:
     high: float
 
 
+class WrittenObject(Protocol):
+    """What a shared producer's `write` may return instead of the XML path: a record of it."""
+
+    timings: dict[str, float]  # seconds per stage of the producer's own work
+
+    @property
+    def xml_path(self) -> Path: ...
+
+
 @dataclass(frozen=True)
 class GeneratedObject:
     """An MJCF object the case needs registered under `name` (see vpro_assets.objects.registry).
     `write(directory) -> xml_path` writes its files deterministically (a shared producer may return
-    a record with `.xml_path` and `.timings`, seconds per stage of its own work)."""
+    a `WrittenObject` record instead)."""
 
     name: str
-    write: Callable[[Path], Path] = field(compare=False)
+    write: Callable[[Path], Path | WrittenObject] = field(compare=False)
     template: str | None = None  # LIBERO object whose placement attributes it copies
-    fingerprint: str = ""  # what its content depends on (for the build's input hash)
     shared: bool = False  # write(objects_root) manages its own caching and atomic layout
 
 
