@@ -35,15 +35,16 @@ the task stays physically possible.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from vpro_assets.core.errors import GeneratorError
 from vpro_assets.scene import pool as pool_mod
+from vpro_assets.scene.bddl_doc import Region
 from vpro_assets.scene.context import GenContext
-from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
-
 from vpro_assets.scene.plugins import register
+from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
 JITTER = 0.015
 ON_TABLE_TOL = 0.01  # m: a target whose lowest point is further from the table surface rests on something
@@ -93,8 +94,8 @@ def choose(ctx: GenContext, rule: str) -> list[pool_mod.PoolObject]:
 
 
 def _variant(ctx: GenContext, rule: str, category: str, spot: np.ndarray, summary: str,
-             extra_placements: list[Placement] = (), generated: list[GeneratedObject] = (),
-             init_replace: dict | None = None, extra_regions: list = (), details: dict | None = None,
+             extra_placements: Sequence[Placement] = (), generated: Sequence[GeneratedObject] = (),
+             init_replace: dict | None = None, extra_regions: Sequence[Region] = (), details: dict | None = None,
              distractor_region_name: str | None = None, distractor_predicate: str = "On",
              placement: dict | None = None) -> SceneVariant:
     """`placement`: Placement fields of the added object other than instance and anchor (default:

@@ -15,9 +15,8 @@
 from __future__ import annotations
 
 from vpro_assets.scene.context import GenContext
-from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
-
 from vpro_assets.scene.plugins import register
+from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
 
 
 def openness_flip(ctx: GenContext) -> tuple[dict, list[JointSetting], str]:

@@ -56,7 +56,7 @@ def rule_for(setting: tx.Setting) -> Rule:
         return RULES["has_receptacle"]
     if cat == "interaction_cue_masking":
         return RULES[{"gripper": "any_task", "gripper_object_contact": "grasps_target",
-                      "placement_contact": "has_receptacle"}[p["region"]]]
+                      "placement_contact": "has_receptacle"}[str(p["region"])]]
     if cat == "temporary_observation_corruption":
         return RULES["any_task" if p["trigger"] == "frequency" or p["phase"] == "approach" else "grasps_target"]
     if cat in ("view_unavailability", "camera_staleness", "prediction_reality_divergence"):

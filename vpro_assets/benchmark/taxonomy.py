@@ -173,8 +173,8 @@ def _build_settings() -> tuple[Setting, ...]:
             out.append(_setting("view_unavailability", f"{view}-{replacement}", view=view, camera=VIEWS[view],
                                 replacement=replacement, constant_value=0 if replacement == "constant" else None))
     for view in VIEWS:
-        for level, delay in enumerate(STALENESS_DELAYS, start=1):
-            out.append(_setting("camera_staleness", f"{view}-delay{level}", view=view, camera=VIEWS[view],
+        for delay_level, delay in enumerate(STALENESS_DELAYS, start=1):
+            out.append(_setting("camera_staleness", f"{view}-delay{delay_level}", view=view, camera=VIEWS[view],
                                 mode="delay", delay_steps=delay))
         out.append(_setting("camera_staleness", f"{view}-freeze", view=view, camera=VIEWS[view], mode="freeze",
                             freeze_step=FREEZE_STEP))

@@ -17,8 +17,8 @@ the vertical axis through the solid's centroid:
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Callable, Mapping
 
 import numpy as np
 
@@ -118,7 +118,10 @@ def amount_of(deformation: str, params: Mapping[str, object]) -> float:
     name = DEFORMATIONS[deformation][0]
     if name not in params:
         raise InvalidParameterError(f"{deformation}: setting params lack {name!r} (have {sorted(params)})")
-    return float(params[name])
+    value = params[name]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InvalidParameterError(f"{deformation}: {name} must be a number, got {value!r}")
+    return float(value)
 
 
 def displacement_measure(points: np.ndarray, warp: Callable[[np.ndarray], np.ndarray], size: float) -> float:

@@ -65,7 +65,7 @@ def _split_once(corners: np.ndarray, attributes: list[np.ndarray], long_edges: n
         else:
             shift = np.zeros(len(faces), dtype=int)
         order = (np.arange(3)[None, :] + shift[:, None]) % 3
-        for a, mid, collected in zip(arrays, mids, out):
+        for a, mid, collected in zip(arrays, mids, out, strict=True):
             c = np.take_along_axis(a[faces], order[..., None], axis=1)
             m = np.take_along_axis(mid[faces], order[..., None], axis=1)
             for tri in _PATTERNS[n_marked]:

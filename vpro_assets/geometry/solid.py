@@ -21,8 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vpro_assets.geometry.meshes import MeshError
-from vpro_assets.geometry.meshes import quantize
+from vpro_assets.geometry.meshes import MeshError, quantize
 
 log = logging.getLogger(__name__)
 

@@ -16,9 +16,7 @@ import numpy as np
 
 from vpro_assets.core.errors import LiberoSetupError
 from vpro_assets.geometry.meshes import quantize
-from vpro_assets.objects.mjcf import Inertial
-from vpro_assets.objects.mjcf import fmt_fixed
-from vpro_assets.objects.mjcf import fmt_sci
+from vpro_assets.objects.mjcf import Inertial, fmt_fixed, fmt_sci
 
 
 @dataclass(frozen=True)

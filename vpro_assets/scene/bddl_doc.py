@@ -14,9 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bddl_templates import TEMPLATE_DIR
-
-from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.core.errors import VProError
+from vpro_assets.libero import bridge as libero_bridge
 
 SCENE_TEMPLATE = "scene_variant.bddl"
 REGION_TEMPLATE = "region.bddl"
@@ -87,7 +86,8 @@ def _inner_groups(block: str) -> list[str]:
 
 def _typed_list(block: str) -> list[tuple[str, str]]:
     body = block.strip()[1:-1].split(None, 1)[1] if len(block.strip()[1:-1].split(None, 1)) > 1 else ""
-    out, pending = [], []
+    out: list[tuple[str, str]] = []
+    pending: list[str] = []
     tokens = body.split()
     i = 0
     while i < len(tokens):

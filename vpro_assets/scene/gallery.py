@@ -6,10 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vpro_assets.libero.env import make_env
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.core.images import label
-from vpro_assets.core.images import write_png
+from vpro_assets.core.images import label, write_png
+from vpro_assets.libero.env import libero_init_states, make_env
 from vpro_assets.libero.init_states import read_init_states
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.scene.build import built_case
