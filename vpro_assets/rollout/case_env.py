@@ -2,13 +2,12 @@
 
 - Normal cases: LIBERO's own env of the base task, initial state = LIBERO's row for the trial.
 - Observation cases (masking, corruption, staleness, ...): the same base env, seen through the
-  perturbation layer (`vpro_assets.perturb`, issue 3) when that layer is in the checkout. Without
-  it the case is *unavailable* (a recorded error), never silently run unperturbed.
+  perturbation layer's `CaseObserver` (`vpro_assets.perturb`).
 - Scene cases (distractors, preconditions, ambiguity, geometry): the generated BDDL and frozen
-  initial states of the built case (`vpro build`, issue 4, found by `vpro_assets.scene.build`); a
-  case whose artifacts are not built is unavailable with the message "not built; run vpro build".
+  initial states of the built case (`vpro build`, found by `vpro_assets.scene.build`); a case whose
+  artifacts are not built is unavailable with the message "not built; run vpro build".
 
-The phase timeline comes from the perturbation layer's phase tracker: the wrapper's own for
+The phase timeline comes from the perturbation layer's phase tracker: the observer's own for
 observation cases, a bare `PhaseTracker` for Normal and scene cases.
 
 An unavailable case raises CaseUnavailableError (recorded once, not retried); anything the
@@ -18,8 +17,6 @@ from __future__ import annotations
 
 import atexit
 import hashlib
-import importlib
-import importlib.util
 import logging
 from functools import lru_cache
 from pathlib import Path
@@ -27,21 +24,23 @@ from typing import Any, Mapping, Optional
 
 import numpy as np
 
+from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import sha256_file
 from vpro_assets.libero import bridge as libero_bridge
-from vpro_assets.libero.env import CAMERAS
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import make_env
-from vpro_assets.core.errors import VProError
+from vpro_assets.libero.env import CAMERAS, make_env
 from vpro_assets.libero.init_states import read_init_states
 from vpro_assets.libero.tasks import get_task
+from vpro_assets.perturb.entities import EntityIndex
+from vpro_assets.perturb.observer import CaseObserver
+from vpro_assets.perturb.phases import PhaseTracker
 from vpro_assets.rollout.policies.base import SimulatorError
+from vpro_assets.scene.build import built_case
 
 log = logging.getLogger(__name__)
 
 
 class CaseUnavailableError(VProError):
-    """The case cannot run in this checkout (scene not built, perturbation layer missing)."""
+    """The case cannot run here: its scene is not built."""
 
 
 def is_normal(case: Mapping) -> bool:
@@ -53,29 +52,9 @@ def _init_states_cached(path: str) -> np.ndarray:
     return read_init_states(path)
 
 
-def perturb_layer():
-    """The perturbation module if it is in the checkout and offers a wrapper, else None."""
-    if importlib.util.find_spec("vpro_assets.perturb") is None:
-        return None
-    module = importlib.import_module("vpro_assets.perturb")
-    return module if any(hasattr(module, n) for n in ("wrap_env", "PerturbedEnv", "wrap_case_env")) else None
-
-
-def _make_wrapper(module, env, case: Mapping, trial: int, resolution: int):
-    for name in ("wrap_case_env", "wrap_env"):
-        if hasattr(module, name):
-            return getattr(module, name)(env, case, trial=trial)
-    return module.PerturbedEnv(env, case, trial=trial)
-
-
 def scene_artifacts(case: Mapping) -> dict:
     """The built scene of a scene case (`vpro_assets.scene.build.built_case`: bddl, init_states,
     meta, with its generated objects registered with LIBERO), or CaseUnavailableError."""
-    if importlib.util.find_spec("vpro_assets.scene") is None:
-        raise CaseUnavailableError(f"case {case['id']}: scene not built; run vpro build "
-                                   "(the scene builder, vpro_assets.scene, is not in this checkout)")
-    from vpro_assets.scene.build import built_case
-
     try:
         found = dict(built_case(case["id"]))
     except (VProError, FileNotFoundError, KeyError, StopIteration, ValueError) as exc:
@@ -91,13 +70,8 @@ def scene_artifacts(case: Mapping) -> dict:
 
 
 def _phase_tracker(sim, task):
-    """The perturbation layer's phase tracker for an env without a perturbation wrapper, if present."""
-    if importlib.util.find_spec("vpro_assets.perturb.phases") is None:
-        return None
+    """A phase tracker for an env without a perturbation observer (Normal and scene cases)."""
     try:
-        from vpro_assets.perturb.entities import EntityIndex
-        from vpro_assets.perturb.phases import PhaseTracker
-
         tracker = PhaseTracker(EntityIndex(sim, task))
         tracker.reset()
         return tracker
@@ -137,7 +111,7 @@ atexit.register(release_cached_envs)  # close GL contexts while the GL library i
 class CaseEnv:
     """One episode's environment: LIBERO env + optional perturbation wrapper + initial state."""
 
-    def __init__(self, case: Mapping, trial: int, env, init_state: np.ndarray, wrapper=None,
+    def __init__(self, case: Mapping, trial: int, env, init_state: np.ndarray, wrapper: Optional[CaseObserver] = None,
                  artifacts: Optional[dict] = None, scene: Optional[dict] = None, cache_key: Optional[tuple] = None):
         self.case, self.trial, self.env, self.wrapper = case, trial, env, wrapper
         self.cache_key = cache_key
@@ -164,9 +138,9 @@ class CaseEnv:
         except Exception as exc:
             self.broken = True
             raise SimulatorError(f"case {self.case['id']} trial {self.trial}: reset failed ({type(exc).__name__}: {exc})") from exc
-        if self.wrapper is not None and hasattr(self.wrapper, "on_reset"):
+        if self.wrapper is not None:
             self.wrapper.on_reset(obs)
-        elif self.wrapper is None:
+        else:
             self.tracker = _phase_tracker(self.sim, self.task)
             if self.tracker is not None:
                 self.tracker.update(self.sim)
@@ -178,7 +152,7 @@ class CaseEnv:
         except Exception as exc:
             self.broken = True
             raise SimulatorError(f"case {self.case['id']} trial {self.trial}: step failed ({type(exc).__name__}: {exc})") from exc
-        if self.wrapper is not None and hasattr(self.wrapper, "on_step"):
+        if self.wrapper is not None:
             self.wrapper.on_step(obs)
         elif self.tracker is not None:
             self.tracker.update(self.sim)
@@ -186,16 +160,16 @@ class CaseEnv:
 
     def policy_images(self, obs: Mapping, step: int) -> dict[str, Optional[np.ndarray]]:
         """The views the policy receives at this step (raw frame; None = unavailable view)."""
-        if self.wrapper is not None and hasattr(self.wrapper, "policy_images"):
+        if self.wrapper is not None:
             return dict(self.wrapper.policy_images(obs, step))
         return {cam: obs[f"{cam}_image"] for cam in CAMERAS}
 
     def feed_predicted(self, frames) -> None:
-        if self.wrapper is not None and hasattr(self.wrapper, "feed_predicted"):
+        if self.wrapper is not None:
             self.wrapper.feed_predicted(frames)
 
     def phase_timeline(self) -> Optional[list]:
-        if self.wrapper is not None and hasattr(self.wrapper, "phase_timeline"):
+        if self.wrapper is not None:
             return self.wrapper.phase_timeline()
         return self.tracker.timeline() if self.tracker is not None else None
 
@@ -221,9 +195,6 @@ def check_available(case: Mapping) -> None:
     level = "normal" if is_normal(case) else case.get("level")
     if level == "scene":
         scene_artifacts(case)
-    elif level == "observation" and perturb_layer() is None:
-        raise CaseUnavailableError(f"case {case['id']}: the observation perturbation layer "
-                                   "(vpro_assets.perturb) is not in this checkout")
 
 
 def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs: Optional[dict] = None,
@@ -236,17 +207,11 @@ def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs
         raise VProError(f"case {case['id']}: trial {trial} out of range (0..{len(rows) - 1})")
     level = "normal" if is_normal(case) else case.get("level")
     scene: dict[str, Any] = {}
-    wrapper_module = None
     if level == "scene":
         scene = scene_artifacts(case)
         bddl, init_path = str(scene["bddl"]), str(scene["init_states"])
         states = _init_states_cached(init_path) if not init_path.endswith(".npy") else np.load(init_path)
     else:
-        if level == "observation":
-            wrapper_module = perturb_layer()
-            if wrapper_module is None:
-                raise CaseUnavailableError(f"case {case['id']}: the observation perturbation layer "
-                                           "(vpro_assets.perturb) is not in this checkout")
         bddl = str(libero_bridge.bddl_path(task.suite, task.name))
         init_path = str(libero_bridge.init_state_path(task.suite, task.name))
         states = _init_states_cached(init_path)
@@ -265,9 +230,9 @@ def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs
     except Exception as exc:
         raise SimulatorError(f"case {case['id']}: building the env failed ({type(exc).__name__}: {exc})") from exc
     wrapper = None
-    if wrapper_module is not None and render:
+    if level == "observation" and render:
         try:
-            wrapper = _make_wrapper(wrapper_module, env, case, trial, resolution)
+            wrapper = CaseObserver(env, case, trial)
         except Exception:
             _close_quietly(env)
             raise

@@ -13,7 +13,7 @@ from typing import Any, Mapping
 from vpro_assets.core.errors import VProError
 from vpro_assets.rollout.policies.callable import load_attribute, make_python_policy
 from vpro_assets.rollout.policies.openpi import OpenpiPolicy
-from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES, make_oracle, oracle_available
+from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES
 
 OPENPI_OPTIONS = ("replan_steps", "connect_timeout", "infer_timeout", "resize", "api_key", "policy_id",
                   "episode_reset")
@@ -45,8 +45,6 @@ def check_spec(spec: str) -> None:
     """Fail fast on a spec that cannot work, without building the policy (no model is loaded)."""
 
     if spec in REFERENCE_POLICIES:
-        if spec == "oracle" and not oracle_available():
-            make_oracle()  # raises the explanatory error
         return
     if spec.startswith(("openpi:", "ws://")):
         parse_openpi(spec)

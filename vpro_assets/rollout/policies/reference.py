@@ -2,23 +2,20 @@
 
 They need no model and make every code path of the runner run; `random` draws from the stream
 `seeding.rng(case_id, trial, "policy")`, so its episodes are reproducible on any backend.
-`oracle` is the privileged-state scripted policy of `vpro_assets.rollout.policies.scripted` when that module
-exists; it receives the live environment through `bind_env` (the one policy allowed to see it).
+`oracle` is the privileged-state scripted policy of `vpro_assets.rollout.policies.scripted`;
+it receives the live environment through `bind_env` (the one policy allowed to see it).
 """
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import logging
 
 import numpy as np
 
-from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.seeding import rng
-from vpro_assets.rollout.policies.base import EpisodeInfo
-from vpro_assets.rollout.policies.base import Observation
-from vpro_assets.rollout.policies.base import PolicyOutput
+from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.rollout.policies.base import EpisodeInfo, Observation, PolicyOutput
+from vpro_assets.rollout.policies.scripted import ScriptedPolicy
 
 log = logging.getLogger(__name__)
 
@@ -66,19 +63,6 @@ class RandomPolicy:
         pass
 
 
-def oracle_available() -> bool:
-    return importlib.util.find_spec("vpro_assets.rollout.policies.scripted") is not None
 
 
-def make_oracle(**kwargs):
-    """The scripted privileged-state policy, or a VProError saying it is not there."""
-    if not oracle_available():
-        raise VProError("policy 'oracle' needs vpro_assets.rollout.policies.scripted, which this checkout does not have")
-    module = importlib.import_module("vpro_assets.rollout.policies.scripted")
-    for name in ("make_policy", "ScriptedPolicy", "OraclePolicy"):
-        if hasattr(module, name):
-            return getattr(module, name)(**kwargs)
-    raise VProError("vpro_assets.rollout.policies.scripted defines none of make_policy, ScriptedPolicy, OraclePolicy")
-
-
-REFERENCE_POLICIES = {"noop": NoopPolicy, "random": RandomPolicy, "oracle": make_oracle}
+REFERENCE_POLICIES = {"noop": NoopPolicy, "random": RandomPolicy, "oracle": ScriptedPolicy}
