@@ -132,6 +132,9 @@ STALENESS_DELAYS = (5, 10, 20)  # control steps: 0.25 s, 0.5 s, 1 s (level 1 = o
 FREEZE_STEP = 30  # the view keeps showing the frame of this step from then on
 REPLAY_START, REPLAY_WINDOW = 40, 20  # from step 40 the view loops over its frames 20..39
 CONTRADICTION_OFFSET_M = 0.10  # the target drawn displaced by 10 cm in the manipulated view
+# Cross-view contradiction: the scene edit that makes each attribute disagree between the views.
+CONTRADICTION_EDITS = {"quantity": "duplicate_target", "existence": "hide_target", "position": "displace_target",
+                       "state": "other_state"}
 GEOMETRY_SEVERITY = {  # deformation magnitude per severity level 1, 2, 3
     "taper": ("top_scale", (0.85, 0.70, 0.55)),  # cross-section scale at the top vs bottom
     "multipeak": ("peak_amplitude", (0.06, 0.12, 0.18)),  # bump height, fraction of radius
@@ -180,9 +183,7 @@ def _build_settings() -> tuple[Setting, ...]:
                             freeze_step=FREEZE_STEP))
         out.append(_setting("camera_staleness", f"{view}-replay", view=view, camera=VIEWS[view], mode="replay",
                             replay_start=REPLAY_START, replay_window=REPLAY_WINDOW))
-    edits = {"quantity": "duplicate_target", "existence": "hide_target", "position": "displace_target",
-             "state": "other_state"}
-    for attribute, edit in edits.items():
+    for attribute, edit in CONTRADICTION_EDITS.items():
         for view in VIEWS:
             out.append(_setting("cross_view_contradiction", f"{attribute}-{view}", attribute=attribute, edit=edit,
                                 view=view, camera=VIEWS[view],

@@ -22,15 +22,12 @@ from typing import Mapping
 import mujoco
 import numpy as np
 
+from vpro_assets.benchmark.taxonomy import CONTRADICTION_EDITS, CONTRADICTION_OFFSET_M, VIEWS
 from vpro_assets.core.errors import InvalidParameterError
-from vpro_assets.benchmark.taxonomy import CONTRADICTION_OFFSET_M
-from vpro_assets.benchmark.taxonomy import VIEWS
 from vpro_assets.perturb import scene_edits as se
 from vpro_assets.perturb.base import Episode, Perturbation, param
 from vpro_assets.perturb.entities import Entity, EntityIndex
 
-EDITS = {"quantity": "duplicate_target", "existence": "hide_target", "position": "displace_target",
-         "state": "other_state"}
 DUPLICATE_OFFSET_M = CONTRADICTION_OFFSET_M
 FLIP = np.diag([1.0, -1.0, -1.0])  # 180 degrees about the world x axis
 
@@ -40,11 +37,11 @@ class Contradiction(Perturbation):
 
     def __init__(self, case_id: str, params: Mapping, task):
         self.case_id = case_id
-        self.attribute = param(case_id, params, "attribute", str, lambda v: v in EDITS, f"one of {', '.join(EDITS)}")
+        self.attribute = param(case_id, params, "attribute", str, lambda v: v in CONTRADICTION_EDITS, f"one of {', '.join(CONTRADICTION_EDITS)}")
         edit = param(case_id, params, "edit", str)
-        if edit != EDITS[self.attribute]:
+        if edit != CONTRADICTION_EDITS[self.attribute]:
             raise InvalidParameterError(f"case {case_id}: edit={edit!r} does not match attribute "
-                                        f"{self.attribute!r} (expected {EDITS[self.attribute]!r})")
+                                        f"{self.attribute!r} (expected {CONTRADICTION_EDITS[self.attribute]!r})")
         self.camera = param(case_id, params, "camera", str, lambda v: v in VIEWS.values())
         if self.attribute == "position":
             self.offset_m = float(param(case_id, params, "offset_m", (int, float), lambda v: 0 < v < 1, "metres"))
@@ -86,7 +83,7 @@ class Contradiction(Perturbation):
     def apply(self, frames, step) -> None:
         # The frame was drawn edited by the env's own render pass; only record it.
         if self.camera in frames:
-            step.note(self.camera, f"scene edit: {EDITS[self.attribute]}")
+            step.note(self.camera, f"scene edit: {CONTRADICTION_EDITS[self.attribute]}")
 
     def _target_width(self) -> float:
         m = self.entities.model

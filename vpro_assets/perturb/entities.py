@@ -15,9 +15,9 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
+from vpro_assets.libero.env import GRIPPER_PREFIX
 from vpro_assets.libero.tasks import TaskRecord
 
-GRIPPER_PREFIX = "gripper0_"
 GRIP_SITE = "gripper0_grip_site"
 LEFT_FINGER_BODIES = ("gripper0_leftfinger", "gripper0_finger_joint1_tip")
 RIGHT_FINGER_BODIES = ("gripper0_rightfinger", "gripper0_finger_joint2_tip")

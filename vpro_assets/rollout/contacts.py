@@ -12,8 +12,9 @@ from typing import Iterable, Optional
 
 import numpy as np
 
+from vpro_assets.libero.env import GRIPPER_PREFIX
+
 COMPOSITIONS = ("target_only", "distractor_only", "both", "neither")
-GRIPPER_PREFIX = "gripper0_"
 
 
 def _geoms_of(model, instances: Iterable[str]) -> set[int]:
