@@ -75,9 +75,6 @@ class CaseObserver:
         current = self._current if self._current is not None else obs
         return {cam: current.get(image_key(cam)) for cam in CAMERAS}
 
-    def perturbed_obs(self) -> dict | None:
-        return self._current
-
     def phase_timeline(self) -> dict:
         timeline = self.pipeline.phase_timeline()
         if timeline:
