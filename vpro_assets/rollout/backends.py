@@ -74,6 +74,21 @@ def _worker_main(tasks, results, send_lock, parent_pid: int, env: dict) -> None:
             results.send(("row", row, os.getpid()))
 
 
+def _rows_of_dead_workers(procs: dict, in_flight: dict, remaining: set, by_key: dict) -> Iterator[dict]:
+    """Forget workers that died; the episode each was running becomes an error row."""
+    for pid, proc in list(procs.items()):
+        if proc.is_alive():
+            continue
+        del procs[pid]
+        key = in_flight.pop(pid, None)
+        if key is not None and key in remaining:
+            remaining.discard(key)
+            row = base_row(by_key[key])
+            row.update(status="error", error_kind="WorkerDied", attempts=1, finished_at=utc_now(),
+                       error=f"worker process {pid} died (exit code {proc.exitcode}) during the episode")
+            yield row
+
+
 def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
     jobs = list(jobs)
     if not jobs:
@@ -101,25 +116,13 @@ def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
     remaining = set(by_key)
     try:
         while remaining:
-            try:
-                if not results.poll(1.0):
-                    raise queue.Empty
-                kind, payload, pid = results.recv()
-            except queue.Empty:
-                for pid, proc in list(procs.items()):
-                    if not proc.is_alive():
-                        del procs[pid]
-                        key = in_flight.pop(pid, None)
-                        if key is not None and key in remaining:
-                            remaining.discard(key)
-                            row = base_row(by_key[key])
-                            row.update(status="error", error_kind="WorkerDied", attempts=1, finished_at=utc_now(),
-                                       error=f"worker process {pid} died (exit code {proc.exitcode}) during the episode")
-                            yield row
-                        if remaining and len(procs) < workers:
-                            new = start()
-                            procs[new.pid] = new
+            if not results.poll(1.0):  # quiet for a second: look for workers that died
+                yield from _rows_of_dead_workers(procs, in_flight, remaining, by_key)
+                while remaining and len(procs) < workers:
+                    new = start()
+                    procs[new.pid] = new
                 continue
+            kind, payload, pid = results.recv()
             if kind == "start":
                 in_flight[pid] = payload
             else:
