@@ -34,7 +34,7 @@ from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.libero.env import CAMERAS, NOOP_ACTION
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.rollout import lerobot_layout
-from vpro_assets.rollout.case_env import check_available, env_for_case, release_cached_envs
+from vpro_assets.rollout.case_env import CaseEnv, check_available, env_for_case, release_cached_envs
 from vpro_assets.rollout.episode import MAX_STEPS, WAIT_STEPS, prompt_of
 from vpro_assets.rollout.policies.openpi import quat2axisangle
 
@@ -75,19 +75,25 @@ class VProCaseEnv(gym.Env):
             self.observation_space = spaces.Dict({f"{cam}_image": image for cam in CAMERAS}
                                                  | {"state": spaces.Box(-np.inf, np.inf, (8,), np.float64)})
             self.action_space = spaces.Box(-1.0, 1.0, (7,), np.float64)
-        self._cenv = None
-        self._raw = None
-        self._shown = None
+        self._cenv: CaseEnv | None = None
+        self._raw: dict[str, Any] = {}
+        self._shown: dict[str, Any] = {}
         self._steps = 0
         self._t = 0
 
+    @property
+    def _live(self) -> CaseEnv:
+        if self._cenv is None:
+            raise InvalidParameterError(f"case {self.case['id']}: call reset() before step()")
+        return self._cenv
+
     def _observation(self) -> tuple[dict, dict]:
-        images = self._cenv.policy_images(self._raw, self._t)
+        images = self._live.policy_images(self._raw, self._t)
         self._shown = images
         info = {"available_views": [c for c in CAMERAS if images.get(c) is not None], "step": self._t,
                 "language": self.task_description}
         if self.obs_layout == "lerobot":
-            return lerobot_layout.format_observation(self._raw, images, self._cenv.env, self.resolution,
+            return lerobot_layout.format_observation(self._raw, images, self._live.env, self.resolution,
                                                      self.camera_name_mapping, self.obs_type), info
         obs = {}
         for cam in CAMERAS:
@@ -100,7 +106,8 @@ class VProCaseEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        if (options or {}).get("trial") is not None:
+        options = options or {}
+        if options.get("trial") is not None:
             trial = int(options["trial"])
         elif self.obs_layout == "lerobot":  # LeRobot's init_state_id: episode_index, then + n_envs per reset
             trial = self._next_trial % self._trials
@@ -110,10 +117,10 @@ class VProCaseEnv(gym.Env):
         if self._cenv is not None:
             self._cenv.close()
         self._cenv = env_for_case(self.case, trial, resolution=self.resolution)
-        self._raw = self._cenv.reset()
+        self._raw = self._live.reset()
         self._t = self._steps = 0
         for _ in range(self.wait_steps):
-            self._raw, _ = self._cenv.step(NOOP_ACTION)
+            self._raw, _ = self._live.step(NOOP_ACTION)
             self._t += 1
         obs, info = self._observation()
         return obs, dict(info, trial=trial, case_id=self.case["id"], is_success=False)
@@ -122,20 +129,20 @@ class VProCaseEnv(gym.Env):
         action = np.asarray(action, dtype=np.float64)
         if action.shape != (7,):
             raise InvalidParameterError(f"case {self.case['id']}: action must have shape (7,), got {action.shape}")
-        self._raw, done = self._cenv.step(action)
+        self._raw, done = self._live.step(action)
         self._t += 1
         self._steps += 1
-        success = bool(done and self._cenv.success())
+        success = bool(done and self._live.success())
         obs, info = self._observation()
         info.update(success=success, is_success=success, done=bool(done), task=self.task, task_id=self.task_id)
         return obs, float(success), success, (not success) and self._steps >= self.max_steps, info
 
     def render(self):
-        if self._raw is None:
+        if not self._raw:
             return None
         if self.obs_layout == "lerobot":  # as LeRobot's: the first view, rotated 180 degrees
             first = next(iter(self.camera_name_mapping))[: -len("_image")]
-            view = self._shown.get(first) if self._shown else None
+            view = self._shown.get(first)
             return None if view is None else np.ascontiguousarray(np.asarray(view)[::-1, ::-1])
         return np.concatenate([self._raw[f"{cam}_image"][::-1] for cam in CAMERAS], axis=1)
 

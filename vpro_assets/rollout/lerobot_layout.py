@@ -27,7 +27,7 @@ from vpro_assets.libero.env import CAMERAS
 
 OBS_TYPES = ("pixels_agent_pos", "pixels")
 DEFAULT_CAMERA_NAMES = {f"{CAMERAS[0]}_image": "image", f"{CAMERAS[1]}_image": "image2"}
-STATE_SHAPES = {"eef": {"pos": (3,), "quat": (4,), "mat": (3, 3)}, "gripper": {"qpos": (2,), "qvel": (2,)},
+STATE_SHAPES: dict[str, dict[str, tuple[int, ...]]] = {"eef": {"pos": (3,), "quat": (4,), "mat": (3, 3)}, "gripper": {"qpos": (2,), "qvel": (2,)},
                 "joints": {"pos": (7,), "vel": (7,)}}
 RAW_STATE_KEYS = {("eef", "pos"): "robot0_eef_pos", ("eef", "quat"): "robot0_eef_quat",
                   ("gripper", "qpos"): "robot0_gripper_qpos", ("gripper", "qvel"): "robot0_gripper_qvel",
@@ -48,7 +48,7 @@ def check_options(case_id: str, obs_type: str, camera_name_mapping: Mapping[str,
 
 def observation_space(resolution: int, mapping: Mapping[str, str], obs_type: str) -> spaces.Dict:
     image = spaces.Box(0, 255, (resolution, resolution, 3), np.uint8)
-    layout = {"pixels": spaces.Dict(dict.fromkeys(mapping.values(), image))}
+    layout: dict[str, spaces.Space] = {"pixels": spaces.Dict(dict.fromkeys(mapping.values(), image))}
     if obs_type == "pixels_agent_pos":
         layout["robot_state"] = spaces.Dict({
             group: spaces.Dict({k: spaces.Box(-np.inf, np.inf, shape, np.float64) for k, shape in fields.items()})
