@@ -101,7 +101,7 @@ def _case_sheet(catalog: dict, case_id: str, out: Path, resolution: int, steps: 
             if step:
                 raw, *_ = env.step(controller.action() if controller else NOOP_ACTION)
             obs = pipe.observe(raw, env.sim)
-            phase = pipe.tracker.phase
+            phase = pipe.tracker.phase if pipe.tracker is not None else None
             if phase != seen_phase or step in wanted:
                 clean = {cam: raw[f"{cam}_image"] for cam in CAMERAS}
                 if pipe.hook is not None:  # the env's own frame of an edited camera is already edited

@@ -109,8 +109,14 @@ def bddl_parser() -> ModuleType:
     package imports robosuite and every LIBERO env; loading the file alone keeps `vpro tasks`,
     `vpro taxonomy` and catalog building free of robosuite and OpenGL.
     """
-    path = libero_root() / "envs" / "bddl_utils.py"
-    spec = importlib.util.spec_from_file_location("vpro_libero_bddl_utils", path)
+    return _load_file("vpro_libero_bddl_utils", libero_root() / "envs" / "bddl_utils.py")
+
+
+def _load_file(name: str, path: Path) -> ModuleType:
+    """A module executed from one file of LIBERO's, without importing its package."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise LiberoSetupError(f"cannot load {path} (LIBERO {libero_root()}); reinstall hf-libero (`make setup`)")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -119,10 +125,7 @@ def bddl_parser() -> ModuleType:
 def suite_task_names() -> dict[str, list[str]]:
     """LIBERO's task order per suite, read from `libero_suite_task_map` (the benchmark module
     itself imports torch)."""
-    path = libero_root() / "benchmark" / "libero_suite_task_map.py"
-    spec = importlib.util.spec_from_file_location("vpro_libero_suite_task_map", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _load_file("vpro_libero_suite_task_map", libero_root() / "benchmark" / "libero_suite_task_map.py")
     return {suite: list(module.libero_task_map[suite]) for suite in SUITES}
 
 

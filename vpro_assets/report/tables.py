@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from typing import Any, Callable, Mapping, Optional
 
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.report.metrics import Rate, composition, drop, group, normal_rate, rate
@@ -33,7 +33,7 @@ class Cell:
     drop: Optional[float] = None
 
     def markdown(self) -> str:
-        if self.rate.sr is None:
+        if self.rate.sr is None or self.rate.ci is None:
             return "–" + (f" ({self.rate.errors} err)" if self.rate.errors else "")
         lo, hi = self.rate.ci
         d = "" if self.drop is None else (f" ↓{self.drop:.1f}" if self.drop >= 0 else f" ↑{-self.drop:.1f}")
@@ -41,7 +41,7 @@ class Cell:
         return f"{self.rate.sr:.1f}{d} (n={self.rate.trials}; {lo:.1f}–{hi:.1f}{err})"
 
     def latex(self) -> str:
-        if self.rate.sr is None:
+        if self.rate.sr is None or self.rate.ci is None:
             return "--"
         lo, hi = self.rate.ci
         d = "" if self.drop is None else (rf"\drop{{{self.drop:.1f}}}" if self.drop >= 0 else rf"\gain{{{-self.drop:.1f}}}")
@@ -101,7 +101,7 @@ def cell(cell_rows: list[dict], policy_rows: list[dict]) -> Cell:
     return Cell(rate(cell_rows), drop(cell_rows, policy_rows))
 
 
-def _by_param(title: str, key: str, category: str, param: str, columns: dict[str, str], rows: list[dict],
+def _by_param(title: str, key: str, category: str, param: str, columns: Mapping[Any, str], rows: list[dict],
               note: str = "", extra: Optional[Callable[[dict], bool]] = None) -> Table:
     """One column per value of a setting parameter within one category."""
     table = Table(key, title, ["Policy", "Normal"] + list(columns.values()), note=note)

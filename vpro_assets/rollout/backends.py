@@ -19,7 +19,7 @@ import multiprocessing as mp
 import os
 import queue
 import signal
-from typing import Iterable, Iterator, Optional
+from typing import Any, Iterable, Iterator, Optional
 
 from vpro_assets.core.errors import VProError
 from vpro_assets.rollout.case_env import release_cached_envs
@@ -153,7 +153,7 @@ def run_ray(jobs: Iterable[dict], workers: int, address: Optional[str] = None) -
         return
     started_here = False
     if not ray.is_initialized():
-        kwargs = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False,
+        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False,
                   "runtime_env": {"env_vars": worker_env(max(workers, 2))}}
         if address:
             ray.init(address=address, **kwargs)
@@ -163,7 +163,8 @@ def run_ray(jobs: Iterable[dict], workers: int, address: Optional[str] = None) -
     try:
         remote = ray.remote(num_cpus=1, max_retries=0)(execute_job)
         limit = max(1, workers) * 2
-        pending, queue_ = {}, list(reversed(jobs))
+        pending: dict[Any, dict] = {}  # Ray object ref -> job
+        queue_ = list(reversed(jobs))
         while queue_ or pending:
             while queue_ and len(pending) < limit:
                 job = queue_.pop()

@@ -168,7 +168,7 @@ class CaseEnv:
         if self.wrapper is not None:
             self.wrapper.feed_predicted(frames)
 
-    def phase_timeline(self) -> Optional[list]:
+    def phase_timeline(self) -> Optional[dict]:
         if self.wrapper is not None:
             return self.wrapper.phase_timeline()
         return self.tracker.timeline() if self.tracker is not None else None
@@ -220,7 +220,7 @@ def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs
         raise VProError(f"case {case['id']}: initial-state row {row} out of range ({len(states)} rows in {init_path})")
     hashes = {"bddl": sha256_file(bddl), "init_states": sha256_file(init_path), "init_row": row}
     key = (bddl, resolution, render, repr(sorted((env_kwargs or {}).items()))) if reuse else None
-    env = _take_cached_env(key) if reuse else None
+    env = _take_cached_env(key) if key is not None else None
     try:
         if env is None:
             env = make_env(task, resolution, bddl_file=bddl if level == "scene" else None, render=render,

@@ -21,13 +21,13 @@ from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import simulator_versions
 from vpro_assets.rollout.case_env import CaseUnavailableError
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode
-from vpro_assets.rollout.policies.base import InfrastructureError
+from vpro_assets.rollout.policies.base import InfrastructureError, Policy
 from vpro_assets.rollout.spec import make_policy, policy_label
 from vpro_assets.rollout.store import utc_now
 
 log = logging.getLogger(__name__)
 
-_POLICIES: dict[str, object] = {}
+_POLICIES: dict[str, Policy] = {}
 
 
 def _policy(spec: str, options: dict):

@@ -83,13 +83,18 @@ def utc_now() -> str:
 class ResultsStore:
     def __init__(self, path: Path | str):
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise VProError(f"results database {self.path}: cannot create its folder ({exc.strerror})") from None
         try:
             self.db = sqlite3.connect(str(self.path), timeout=60.0, isolation_level=None)
             self.db.row_factory = sqlite3.Row
             mode = self.db.execute("PRAGMA journal_mode=WAL").fetchone()[0]
             self.db.execute("PRAGMA synchronous=FULL")
             version = self.db.execute("PRAGMA user_version").fetchone()[0]
+        except sqlite3.OperationalError as exc:  # unwritable folder, a directory in the way, ...
+            raise VProError(f"results database {self.path}: cannot open it ({exc})") from None
         except sqlite3.DatabaseError as exc:
             raise VProError(f"{self.path}: not a results database ({exc})") from None
         if mode.lower() != "wal":
@@ -128,7 +133,8 @@ class ResultsStore:
         return out
 
     def runs(self) -> list[dict]:
-        return [self.run(r[0]) for r in self.db.execute("SELECT run_id FROM runs ORDER BY created_at, rowid")]
+        ids = [r[0] for r in self.db.execute("SELECT run_id FROM runs ORDER BY created_at, rowid")]
+        return [run for run_id in ids if (run := self.run(run_id)) is not None]
 
     def latest_run_id(self) -> Optional[str]:
         row = self.db.execute("SELECT run_id FROM runs ORDER BY created_at DESC, rowid DESC LIMIT 1").fetchone()
@@ -170,7 +176,8 @@ class ResultsStore:
         return cur.rowcount > 0
 
     def episodes(self, run_id: Optional[str] = None) -> list[dict]:
-        query, args = "SELECT * FROM episodes", ()
+        query = "SELECT * FROM episodes"
+        args: tuple[str, ...] = ()
         if run_id is not None:
             query, args = query + " WHERE run_id = ?", (run_id,)
         rows = []

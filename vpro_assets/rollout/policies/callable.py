@@ -47,7 +47,7 @@ class FunctionPolicy:
             self._wants_episode = len(params) >= 2
         except (TypeError, ValueError):
             self._wants_episode = False
-        self._episode = None
+        self._episode: EpisodeInfo | None = None
 
     def reset(self, episode: EpisodeInfo) -> None:
         self._episode = episode

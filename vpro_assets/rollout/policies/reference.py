@@ -47,7 +47,7 @@ class RandomPolicy:
 
     def __init__(self, chunk: int = 5, scale: float = 0.5):
         self.chunk, self.scale = chunk, scale
-        self._rng = None
+        self._rng: np.random.Generator | None = None
 
     def reset(self, episode: EpisodeInfo) -> None:
         self._rng = rng(episode.case_id, episode.trial, "policy")
