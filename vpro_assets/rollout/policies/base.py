@@ -16,8 +16,10 @@ adapter sends a black image, as the model's own image mask would not reach the s
 duplicate replacements arrive as ordinary images, made by the perturbation layer.
 
 A policy may also return predicted frames (world-action models); the runner passes them back to the
-perturbation layer for Prediction-Reality Divergence. Such a policy says so with a class attribute
-`predicts_frames = True`; Prediction-Reality Divergence cases are unavailable to other policies.
+perturbation layer for Prediction-Reality Divergence. Such a policy says so with an attribute
+`predicts_frames = True` (the openpi adapter reads it from the server's metadata, see
+`vpro_assets.rollout.policies.wam`); Prediction-Reality Divergence cases are unavailable to other
+policies.
 """
 from __future__ import annotations
 
