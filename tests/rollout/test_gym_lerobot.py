@@ -112,7 +112,7 @@ def test_lerobot_initial_state_order_and_bad_options():
     env = gym.make("vpro/Case-v0", obs_layout="lerobot", obs_type="pixels", episode_index=1, n_envs=2, **KW)
     obs, info = env.reset()
     assert set(obs) == {"pixels"} and info["trial"] == 1 and info["is_success"] is False
-    assert env.reset()[1]["trial"] == 3  # LeRobot's init_state_id += n_envs
+    assert env.unwrapped._next_trial == 3  # the next reset takes trial 3: LeRobot's init_state_id += n_envs
     assert env.render().shape == (32, 32, 3)
     with pytest.raises(InvalidParameterError, match=r"action must have shape \(7,\), got \(1, 7\)"):
         env.step(MOVE[None])
