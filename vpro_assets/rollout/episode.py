@@ -14,19 +14,15 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Optional
 
 import numpy as np
 
-from vpro_assets.libero.env import CAMERAS
-from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.core.errors import VProError
+from vpro_assets.libero.env import CAMERAS, NOOP_ACTION
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.rollout.case_env import CaseEnv, CaseUnavailableError, check_available, env_for_case
 from vpro_assets.rollout.contacts import ContactTracker
-from vpro_assets.rollout.policies.base import EpisodeInfo
-from vpro_assets.rollout.policies.base import InfrastructureError
-from vpro_assets.rollout.policies.base import Observation
-from vpro_assets.rollout.policies.base import as_output
+from vpro_assets.rollout.policies.base import EpisodeInfo, InfrastructureError, Observation, as_output
 
 log = logging.getLogger(__name__)
 
@@ -39,8 +35,13 @@ class EpisodeSettings:
     resolution: int = 256
     wait_steps: int = WAIT_STEPS
     max_steps: dict = field(default_factory=lambda: dict(MAX_STEPS))  # per suite
-    max_steps_override: Optional[int] = None  # one limit for every suite
-    video_dir: Optional[str] = None
+    max_steps_override: int | None = None  # one limit for every suite
+    video_dir: str | None = None
+    render: bool = True  # False: no renderer, no camera observations (policies that act from state)
+
+    def __post_init__(self) -> None:
+        if not self.render and self.video_dir:
+            raise VProError("a video needs rendered episodes: drop --video or run with rendering")
 
     def limit(self, suite: str) -> int:
         return self.max_steps_override if self.max_steps_override is not None else self.max_steps.get(suite, 520)
@@ -85,8 +86,8 @@ class EpisodeSession:
         self.limit = settings.limit(case["suite"])
         self.instruction = prompt_of(case)
         self.started = time.time()
-        self.cenv: Optional[CaseEnv] = None
-        self.contacts: Optional[ContactTracker] = None
+        self.cenv: CaseEnv | None = None
+        self.contacts: ContactTracker | None = None
         self.t = 0  # control steps since the reset, wait steps included
         self.steps = 0  # policy steps
         self.success = False
@@ -96,9 +97,10 @@ class EpisodeSession:
         return EpisodeInfo(instruction=self.instruction, case_id=self.case["id"], trial=self.trial, seed=self.seed,
                            suite=self.case["suite"], task=self.case["task"])
 
-    def start(self, on_reset: Optional[Callable[[CaseEnv], None]] = None) -> dict:
+    def start(self, on_reset: Callable[[CaseEnv], None] | None = None) -> dict:
         """Build the env, reset it to the trial's initial state, run the wait steps; the raw observation."""
-        self.cenv = env_for_case(self.case, self.trial, resolution=self.settings.resolution)
+        self.cenv = env_for_case(self.case, self.trial, resolution=self.settings.resolution,
+                                 render=self.settings.render)
         obs = self.cenv.reset()
         if on_reset is not None:
             on_reset(self.cenv)
@@ -109,10 +111,13 @@ class EpisodeSession:
         return obs
 
     def policy_images(self, obs: dict) -> dict:
-        """The views the policy receives now (raw bottom-up frame; None = unavailable view)."""
+        """The views the policy receives now (raw bottom-up frame; None = unavailable view, and
+        every view of a render-free episode)."""
+        if not self.settings.render:
+            return dict.fromkeys(CAMERAS)
         return self.cenv.policy_images(obs, self.t)
 
-    def observation(self, obs: dict, images: Optional[dict] = None) -> Observation:
+    def observation(self, obs: dict, images: dict | None = None) -> Observation:
         images = self.policy_images(obs) if images is None else images
         return Observation.from_libero(obs, self.t, self.instruction, images=images)
 
@@ -130,7 +135,7 @@ class EpisodeSession:
     def finished(self) -> bool:
         return self.success or self.steps >= self.limit
 
-    def result(self, video: Optional[str] = None) -> dict:
+    def result(self, video: str | None = None) -> dict:
         return {"success": self.success, "steps": self.steps, "seed": self.seed,
                 "phase_timeline": self.cenv.phase_timeline(), "contact": self.contacts.summary(),
                 "artifact_hashes": self.cenv.artifact_hashes, "wall_time": time.time() - self.started,
@@ -145,6 +150,9 @@ class EpisodeSession:
 def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> dict:
     """Run one episode and return its row fields. Raises InfrastructureError or CaseUnavailableError."""
     session = EpisodeSession(case, trial, settings)
+    if not settings.render and getattr(policy, "uses_images", True):
+        raise VProError(f"policy {_pid(policy)} acts on camera images; render-free episodes run only policies "
+                        "that declare uses_images = False (noop, random, oracle)")
     if case.get("params", {}).get("requires_predicted_frames") and not getattr(policy, "predicts_frames", False):
         raise CaseUnavailableError(f"case {case['id']}: policy {_pid(policy)} does not predict frames; "
                                    "Prediction-Reality Divergence applies to frame-predicting policies only")
@@ -185,7 +193,7 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
         session.close()
 
 
-def _video_frame(obs: dict, images: Optional[dict]) -> np.ndarray:
+def _video_frame(obs: dict, images: dict | None) -> np.ndarray:
     """Clean views (left) and the policy's views (right), upright."""
     clean = [obs[f"{cam}_image"] for cam in CAMERAS]
     seen = [(images or {}).get(cam) for cam in CAMERAS]
@@ -193,7 +201,7 @@ def _video_frame(obs: dict, images: Optional[dict]) -> np.ndarray:
     return np.concatenate([np.asarray(x)[::-1] for x in clean + seen], axis=1).astype(np.uint8)
 
 
-def _write_video(video_dir: str, case_id: str, trial: int, frames: list) -> Optional[str]:
+def _write_video(video_dir: str, case_id: str, trial: int, frames: list) -> str | None:
     import cv2
 
     if not frames:

@@ -2,8 +2,9 @@
 
 They need no model and make every code path of the runner run; `random` draws from the stream
 `seeding.rng(case_id, trial, "policy")`, so its episodes are reproducible on any backend.
-`oracle` is the privileged-state scripted policy of `vpro_assets.rollout.policies.scripted`;
-it receives the live environment through `bind_env` (the one policy allowed to see it).
+`oracle` is the privileged oracle of `vpro_assets.rollout.policies.oracle` (every goal of the 40
+tasks from simulator state); it receives the live environment through `bind_env` (the one policy
+allowed to see it). None of them reads images, so all three run in render-free episodes.
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from vpro_assets.core.errors import VProError
 from vpro_assets.core.seeding import rng
 from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.rollout.policies.base import EpisodeInfo, Observation, PolicyOutput
-from vpro_assets.rollout.policies.scripted import ScriptedPolicy
+from vpro_assets.rollout.policies.oracle.policy import OraclePolicy
 
 log = logging.getLogger(__name__)
 
@@ -25,6 +26,7 @@ class NoopPolicy:
 
     policy_id = "noop"
     replan_steps = None
+    uses_images = False
 
     def __init__(self, chunk: int = 5):
         self.chunk = chunk
@@ -44,6 +46,7 @@ class RandomPolicy:
 
     policy_id = "random"
     replan_steps = None
+    uses_images = False
 
     def __init__(self, chunk: int = 5, scale: float = 0.5):
         self.chunk, self.scale = chunk, scale
@@ -63,6 +66,4 @@ class RandomPolicy:
         pass
 
 
-
-
-REFERENCE_POLICIES = {"noop": NoopPolicy, "random": RandomPolicy, "oracle": ScriptedPolicy}
+REFERENCE_POLICIES = {"noop": NoopPolicy, "random": RandomPolicy, "oracle": OraclePolicy}

@@ -1,0 +1,54 @@
+"""Which joint a goal's region names, and which way it opens, read from the model.
+
+LIBERO's region names carry the level (`wooden_cabinet_1_top_region` -> the joint `..._top_level`);
+a fixture with one joint (the microwave's door) needs no level. A joint opens toward the end of its
+range farther from its closed value 0 (LIBERO's cabinets open at qpos < -0.14, the microwave at
+qpos < -1.3), and LIBERO's `Open` / `Close` checks decide when it is done.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
+
+LEVELS = ("top", "middle", "bottom")
+
+
+@dataclass(frozen=True)
+class Joint:
+    id: int
+    fixture: str
+    region: str  # the goal argument it serves
+    open_end: float  # the range limit on the open side
+    closed_end: float  # the range limit on the closed side
+
+    @property
+    def open_sign(self) -> float:
+        return float(np.sign(self.open_end - self.closed_end))
+
+
+def owner_of(world: World, arg: str) -> str:
+    names = [inst for inst, _ in world.task.objects + world.task.fixtures]
+    return max((n for n in names if arg == n or arg.startswith(n + "_")), key=len, default=arg)
+
+
+def joint_for(world: World, arg: str) -> Joint:
+    fixture = owner_of(world, arg)
+    joints = world.joints_of(fixture)
+    if not joints:
+        raise SkillFailed(f"{arg}: {fixture} has no hinge or slide joint")
+    levels = [w for w in LEVELS if f"_{w}_" in arg[len(fixture):] + "_"]
+    named = [j for j in joints if any(w in world.joint_name(j) for w in levels)]
+    j = (named or joints)[0]
+    lo, hi = (float(x) for x in world.m.jnt_range[j])
+    open_end, closed_end = (lo, hi) if abs(lo) > abs(hi) else (hi, lo)
+    return Joint(j, fixture, arg, open_end, closed_end)
+
+
+def needs_opening(world: World, region: str) -> bool:
+    """A closed drawer or door (nearer its closed end than its open end) must open before
+    something goes in."""
+    joint = joint_for(world, region)
+    return abs(world.qpos(joint.id) - joint.closed_end) < 0.5 * abs(joint.open_end - joint.closed_end)

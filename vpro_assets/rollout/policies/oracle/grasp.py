@@ -1,0 +1,93 @@
+"""Grasping an object from its actual geometry: where to put the fingers, at which yaw, and the
+pick skill (approach, descend, close, lift, check).
+
+The object's shape is the cloud of world corners of its collision geoms' boxes (deformed,
+inverted, recoloured and look-alike objects alike: nothing is read from the object's name). Its
+horizontal principal axes give the direction across which it is narrowest. An object narrow enough
+for the open fingers is pinched across that direction; a wider one (bowls, mugs, baskets) is
+pinched at its wall, the fingers closing radially on the side nearest the robot.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vpro_assets.rollout.policies.oracle import motion
+from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
+from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
+
+MAX_PINCH_M = 0.072  # widest object the open fingers (about 8 cm) take across
+WALL_INSET_M = 0.012  # the fingers' centre this far inside an object's outer wall
+HOVER_M = 0.08  # approach height above the grasp point
+LIFT_M = 0.10  # lift after closing, before any carry
+MIN_LIFT_M = 0.02  # the object counts as lifted when it rose this much
+TABLE_CLEARANCE_M = 0.008  # grip site at least this high above the object's bottom
+ROBOT_BASE_XY = np.array([-0.66, 0.0])  # the arm stands at -x in every LIBERO scene
+
+
+@dataclass(frozen=True)
+class Grasp:
+    point: np.ndarray  # grip site position at closing
+    axis: np.ndarray  # horizontal unit vector the fingers close along
+    width: float  # extent of the object along `axis` at the grasp (m)
+    rim: bool  # pinching a wall rather than the whole object
+
+
+def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(major, minor) horizontal unit axes of a point cloud."""
+    xy = points[:, :2] - points[:, :2].mean(0)
+    _, vecs = np.linalg.eigh(xy.T @ xy)
+    minor, major = vecs[:, 0], vecs[:, 1]
+    return np.append(major, 0.0), np.append(minor, 0.0)
+
+
+def plan_grasp(world: World, instance: str) -> Grasp:
+    pts = world.points(instance)
+    lo, hi = pts.min(0), pts.max(0)
+    height = hi[2] - lo[2]
+    major, minor = principal_axes(pts)
+    proj_minor = pts[:, :2] @ minor[:2]
+    width = float(proj_minor.max() - proj_minor.min())
+    center = np.append((lo[:2] + hi[:2]) / 2, 0.0)
+    z = max(hi[2] - float(np.clip(height * 0.5, 0.01, 0.03)), lo[2] + TABLE_CLEARANCE_M)
+    if width <= MAX_PINCH_M:
+        mid = minor * (proj_minor.max() + proj_minor.min()) / 2
+        proj_major = pts[:, :2] @ major[:2]
+        point = mid + major * (proj_major.max() + proj_major.min()) / 2
+        point[2] = z
+        return Grasp(point, minor, width, rim=False)
+    # A wide object: pinch its wall on the side facing the robot, fingers closing radially.
+    toward = np.append(ROBOT_BASE_XY - center[:2], 0.0)
+    toward /= np.linalg.norm(toward)
+    proj = (pts[:, :2] - center[:2]) @ toward[:2]
+    point = center + toward * (proj.max() - WALL_INSET_M)
+    point[2] = hi[2] - min(0.02, height / 3)
+    return Grasp(point, toward, 2 * WALL_INSET_M, rim=True)
+
+
+def grasp_orientation(world: World, axis: np.ndarray) -> np.ndarray:
+    """Gripper pointing down with the fingers closing along `axis` (the yaw nearest the current)."""
+    yaw = float(np.arctan2(axis[1], axis[0]))
+    now = motion.yaw_of(world.eef_mat())
+    yaw += np.pi * np.round((now - yaw) / np.pi)
+    return motion.down_with_yaw(yaw)
+
+
+def pick(world: World, instance: str, attempts: int = 3) -> Actions:
+    """Grasp `instance` and lift it LIFT_M; SkillFailed when it does not come up after `attempts`."""
+    for attempt in range(attempts):
+        grasp = plan_grasp(world, instance)
+        orient = grasp_orientation(world, grasp.axis)
+        start_z = world.body_pos(instance)[2]
+        above = grasp.point + [0, 0, HOVER_M]
+        above[2] = max(above[2], world.eef()[2] if attempt == 0 else above[2])
+        yield from motion.move_to(world, above, OPEN, orient, tol=0.015, max_steps=150)
+        yield from motion.move_to(world, grasp.point + [0, 0, HOVER_M], OPEN, orient, tol=0.01, max_steps=60)
+        yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.006, max_steps=80, speed=0.6)
+        yield from motion.gripper(world, CLOSE, orient=orient)
+        yield from motion.move_to(world, world.eef() + [0, 0, LIFT_M], CLOSE, orient, tol=0.015, max_steps=60)
+        if world.body_pos(instance)[2] - start_z > MIN_LIFT_M and world.finger_gap() > 0.002:
+            return
+        yield from motion.gripper(world, OPEN, orient=orient)
+    raise SkillFailed(f"could not lift {instance} in {attempts} attempts")

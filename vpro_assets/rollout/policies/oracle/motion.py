@@ -1,0 +1,83 @@
+"""Motion primitives: 7-D OSC_POSE actions that drive the grip site to a pose, as generators.
+
+A skill is a generator of actions: it yields one action per control step and reads the simulator
+state again when it resumes, so every primitive is closed-loop. Position is a proportional law on
+the grip site's error, clipped to the action box; orientation keeps the gripper pointing down and
+turns it about the vertical to a commanded yaw (the error rotation through MuJoCo's
+`mju_mat2Quat` / `mju_quat2Vel`). robosuite's OSC_POSE scales an action of 1 to 5 cm and 0.5 rad.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import mujoco
+import numpy as np
+
+from vpro_assets.core.mjgeom import axis_angle_quat, quat_matrix
+from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
+
+Actions = Iterator[np.ndarray]
+
+OSC_MAX_STEP_M = 0.05  # OSC_POSE output_max for position
+OSC_MAX_ROT = 0.5  # OSC_POSE output_max for rotation (rad)
+GAIN = 2.0  # proportional gain on the position error, in units of OSC_MAX_STEP_M
+ROT_GAIN = 1.0
+OPEN, CLOSE = -1.0, 1.0
+GRIPPER_STEPS = 12  # control steps for the fingers to close or open
+TOL_M = 0.008
+DOWN = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # grip site pointing down, fingers along world y
+
+
+def yaw_of(mat: np.ndarray) -> float:
+    """Heading of the gripper's x axis about the vertical (the gripper is pointing down)."""
+    return float(np.arctan2(mat[1, 0], mat[0, 0]))
+
+
+def down_with_yaw(yaw: float) -> np.ndarray:
+    return quat_matrix(axis_angle_quat([0, 0, 1], yaw)) @ DOWN
+
+
+def rotation_error(current: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """Axis-angle (world frame) of the rotation taking `current` to `goal`."""
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, (goal @ current.T).flatten())
+    vel = np.zeros(3)
+    mujoco.mju_quat2Vel(vel, q, 1.0)
+    return vel
+
+
+def action_to(world: World, goal: np.ndarray, grip: float, orient: np.ndarray | None = None,
+              speed: float = 1.0) -> np.ndarray:
+    """One action moving the grip site toward `goal` (and the hand toward `orient`)."""
+    delta = np.clip((np.asarray(goal) - world.eef()) / OSC_MAX_STEP_M * GAIN, -speed, speed)
+    rot = np.zeros(3)
+    if orient is not None:
+        rot = np.clip(rotation_error(world.eef_mat(), orient) / OSC_MAX_ROT * ROT_GAIN, -1.0, 1.0)
+    return np.concatenate([delta, rot, [grip]])
+
+
+def move_to(world: World, goal, grip: float, orient: np.ndarray | None = None, tol: float = TOL_M,
+            max_steps: int = 120, speed: float = 1.0, strict: bool = False) -> Actions:
+    """Drive the grip site to `goal` (within `tol`); gives up after `max_steps` (SkillFailed when
+    `strict`)."""
+    goal = np.asarray(goal, dtype=float)
+    for _ in range(max_steps):
+        if np.linalg.norm(goal - world.eef()) < tol and (orient is None or
+                                                        np.linalg.norm(rotation_error(world.eef_mat(), orient)) < 0.05):
+            return
+        yield action_to(world, goal, grip, orient, speed)
+    if strict:
+        raise SkillFailed(f"grip site did not reach {np.round(goal, 3).tolist()} "
+                          f"(at {np.round(world.eef(), 3).tolist()})")
+
+
+def gripper(world: World, grip: float, steps: int = GRIPPER_STEPS, orient: np.ndarray | None = None) -> Actions:
+    """Open or close the fingers in place."""
+    hold = world.eef()
+    for _ in range(steps):
+        yield action_to(world, hold, grip, orient)
+
+
+def hold_still(world: World, grip: float, steps: int) -> Actions:
+    for _ in range(steps):
+        yield np.concatenate([np.zeros(6), [grip]])

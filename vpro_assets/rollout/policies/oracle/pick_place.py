@@ -1,0 +1,121 @@
+"""Pick an object and put it on or into a destination: an object (plate, bowl, basket), a fixture
+region (a stove's cook region, a cabinet's top, a drawer, a rack) or a named table region ("to the
+right of the plate").
+
+LIBERO's checks decide where the object must end: `On` an object wants the two bodies' positions
+within 3 cm horizontally and in contact; `On` or `In` a region wants the object's body position in
+the region's box. So the carry aims the held object's *body position* (not its box centre) at the
+destination's centre. The carry height clears every obstacle in the corridor between the object and
+the destination (their world boxes); the object is lowered until it touches something or reaches
+the destination's surface, then released.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vpro_assets.core.mjgeom import geom_corners
+from vpro_assets.rollout.policies.oracle import motion
+from vpro_assets.rollout.policies.oracle.grasp import pick
+from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
+from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
+
+CLEAR_M = 0.04  # the held object's bottom this far above every obstacle on the way
+MAX_CARRY_ABOVE_TABLE_M = 0.45  # highest grip site the arm reaches comfortably, above the table
+RELEASE_ABOVE_M = 0.012  # release when the object's bottom is this close to the destination surface
+RETREAT_M = 0.10
+
+
+@dataclass(frozen=True)
+class Destination:
+    xy: np.ndarray  # where the held object's body position should come down
+    surface_z: float  # top of what it rests on
+    instance: str  # the object or fixture that receives it
+    relation: str  # "on" or "in"
+
+
+def _instances(world: World) -> list[str]:
+    return [inst for inst, _ in world.task.objects + world.task.fixtures]
+
+
+def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
+    """Where `held` must go for the goal predicate (relation held arg)."""
+    instances = _instances(world)
+    if arg in instances:
+        box = world.box(arg)
+        return Destination(world.body_pos(arg)[:2], float(box.hi[2]), arg, relation)
+    if not world.has_site(arg):
+        raise SkillFailed(f"goal names {arg!r}: neither an object nor a region of the scene")
+    owner = max((i for i in instances if arg.startswith(i + "_")), key=len, default=arg)
+    center = world.site_pos(arg)
+    xy = center[:2].copy()
+    surface = support_height(world, xy, exclude=(held,))
+    return Destination(xy, surface, owner, relation)
+
+
+def support_height(world: World, xy: np.ndarray, exclude: tuple[str, ...] = (), radius: float = 0.02) -> float:
+    """Top of the highest collision geom whose world box covers `xy` (the table if none)."""
+    top = world.table_z
+    for g in world.obstacle_geoms(exclude):
+        pts = geom_corners(world.m, world.d, [g])
+        lo, hi = pts.min(0), pts.max(0)
+        if np.all(xy >= lo[:2] - radius) and np.all(xy <= hi[:2] + radius):
+            top = max(top, float(hi[2]))
+    return top
+
+
+def corridor_top(world: World, a: np.ndarray, b: np.ndarray, margin: float, exclude: tuple[str, ...]) -> float:
+    """Highest obstacle top whose box comes within `margin` of the segment a-b (xy)."""
+    top = world.table_z
+    ab = b - a
+    n = max(2, int(np.linalg.norm(ab) / 0.02) + 1)
+    samples = a + np.linspace(0, 1, n)[:, None] * ab
+    for g in world.obstacle_geoms(exclude):
+        pts = geom_corners(world.m, world.d, [g])
+        lo, hi = pts.min(0)[:2] - margin, pts.max(0)[:2] + margin
+        if np.any(np.all((samples >= lo) & (samples <= hi), axis=1)):
+            top = max(top, float(pts[:, 2].max()))
+    return top
+
+
+def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()) -> Actions:
+    """Move the held object's body position over `xy`, high enough to clear the corridor."""
+    box = world.box(held)
+    hang = world.eef()[2] - box.lo[2]  # grip site height above the object's bottom
+    radius = float(np.max(box.size[:2])) / 2
+    start = world.body_pos(held)[:2]
+    top = corridor_top(world, start, xy, radius + 0.02, exclude=(held, *exclude))
+    z = min(max(top + CLEAR_M + hang, world.eef()[2]), world.table_z + MAX_CARRY_ABOVE_TABLE_M)
+    orient = world.eef_mat()
+    yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, orient, tol=0.015, max_steps=60)
+    for _ in range(3):  # re-aim as the held object swings
+        offset = world.eef()[:2] - world.body_pos(held)[:2]
+        yield from motion.move_to(world, [*(xy + offset), z], CLOSE, orient, tol=0.01, max_steps=120)
+
+
+def lower_and_release(world: World, held: str, dest: Destination) -> Actions:
+    """Lower until the held object touches something other than the gripper or reaches the surface;
+    open and move up."""
+    orient = world.eef_mat()
+    for _ in range(160):
+        box = world.box(held)
+        touching = world.touching(held) - {"gripper"}
+        if touching or box.lo[2] - dest.surface_z < RELEASE_ABOVE_M:
+            break
+        offset = world.eef()[:2] - world.body_pos(held)[:2]
+        goal = np.array([*(dest.xy + offset), world.eef()[2] - 0.03])
+        yield motion.action_to(world, goal, CLOSE, orient, speed=0.5)
+    yield from motion.gripper(world, OPEN, orient=orient)
+    yield from motion.move_to(world, world.eef() + [0, 0, RETREAT_M], OPEN, orient, tol=0.02, max_steps=40)
+
+
+def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions:
+    """Pick `held` and put it (relation) `dest_arg`."""
+    yield from pick(world, held)
+    dest = resolve(world, relation, dest_arg, held)
+    yield from carry(world, held, dest.xy)
+    if not world.held(held) and world.body_pos(held)[2] < dest.surface_z:
+        raise SkillFailed(f"{held} dropped while carried")
+    yield from lower_and_release(world, held, dest)
+

@@ -1,0 +1,97 @@
+"""The order of skills that reaches a BDDL goal from the current state.
+
+The goal is LIBERO's own parsed goal of the episode's env (`parsed_problem["goal_state"]`, the
+conjunction every libero_10 task states), and each predicate is checked with LIBERO's own
+predicate functions, so a predicate that already holds gets no skill. The order:
+1. switch knobs (`TurnOn`, `TurnOff`): the stove is reached before pots stand in front of it;
+2. open what the goal asks open, and every closed drawer or door something must go *into*;
+3. placements (`On`, `In`), in the goal's order;
+4. close what the goal asks closed (after whatever goes inside).
+A flat object too wide to pinch that must go onto a table region is pushed there.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from vpro_assets.rollout.policies.oracle import door, drawer, knob, push
+from vpro_assets.rollout.policies.oracle.articulation import needs_opening, owner_of
+from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, principal_axes
+from vpro_assets.rollout.policies.oracle.motion import Actions
+from vpro_assets.rollout.policies.oracle.pick_place import pick_place
+from vpro_assets.rollout.policies.oracle.world import World
+
+PLACEMENT = ("on", "in")
+PUSH_MAX_HEIGHT_M = 0.03
+
+
+@dataclass(frozen=True)
+class Step:
+    skill: str  # module of the skill: pick_place, drawer, door, knob, push
+    predicate: tuple[str, ...]  # the goal predicate it makes true (lower-case name first)
+    run: Callable[[World], Actions]
+
+    def __str__(self) -> str:
+        return f"{self.skill}({' '.join(self.predicate)})"
+
+
+def _is_door(world: World, fixture: str) -> bool:
+    return any(world.m.jnt_type[j] == 3 for j in world.joints_of(fixture))  # mjJNT_HINGE
+
+
+def _articulated(world: World, arg: str) -> bool:
+    owner = owner_of(world, arg)
+    return owner in dict(world.task.fixtures) and bool(world.joints_of(owner))
+
+
+def _open_step(world: World, arg: str, opening: bool) -> Step:
+    owner = owner_of(world, arg)
+    module = door if _is_door(world, owner) else drawer
+    run = (lambda w: module.open_(w, arg)) if opening else (lambda w: module.close(w, arg))
+    return Step(module.__name__.rsplit(".", 1)[1], ("open" if opening else "close", arg), run)
+
+
+def _pushable(world: World, obj: str, dest: str) -> bool:
+    if dest in [inst for inst, _ in world.task.objects]:
+        return False
+    pts = world.points(obj)
+    _, minor = principal_axes(pts)
+    proj = pts[:, :2] @ minor[:2]
+    height = pts[:, 2].max() - pts[:, 2].min()
+    table_region = owner_of(world, dest) not in dict(world.task.fixtures) or "table" in owner_of(world, dest)
+    return table_region and height < PUSH_MAX_HEIGHT_M and proj.max() - proj.min() > MAX_PINCH_M
+
+
+def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, ...]], bool]) -> list[Step]:
+    """Steps for the goal predicates that do not hold yet, in dependency order."""
+    todo = [(g[0].lower(), *g[1:]) for g in goal if not holds(tuple(g))]
+    steps: list[Step] = []
+    for pred in todo:
+        if pred[0] in ("turnon", "turnoff"):
+            steps.append(Step("knob", pred, lambda w, p=pred: knob.switch(w, p[1], on=p[0] == "turnon")))
+    opened: set[str] = set()
+    for pred in todo:
+        if pred[0] == "open":
+            steps.append(_open_step(world, pred[1], True))
+            opened.add(pred[1])
+    for pred in todo:
+        if (pred[0] == "in" and _articulated(world, pred[2]) and pred[2] not in opened
+                and not holds(("open", pred[2])) and needs_opening(world, pred[2])):
+            steps.append(_open_step(world, pred[2], True))
+            opened.add(pred[2])
+    for pred in todo:
+        if pred[0] in PLACEMENT:
+            _, obj, dest = pred
+            if _pushable(world, obj, dest):
+                steps.append(Step("push", pred, lambda w, o=obj, d=dest: push.push_to(w, o, d)))
+            else:
+                steps.append(Step("pick_place", pred, lambda w, r=pred[0], o=obj, d=dest: pick_place(w, o, r, d)))
+    for pred in todo:
+        if pred[0] == "close":
+            steps.append(_open_step(world, pred[1], False))
+    return steps
+
+
+def unmet(goal: list[tuple[str, ...]], holds: Callable[[tuple[str, ...]], bool]) -> list[tuple[str, ...]]:
+    return [tuple(g) for g in goal if not holds(tuple(g))]
+

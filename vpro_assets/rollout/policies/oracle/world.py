@@ -1,0 +1,209 @@
+"""The oracle's privileged view of one simulation: the grip site, the fingers, bodies, geoms,
+sites and joints by LIBERO's names, and world boxes of objects from their collision geoms.
+
+Everything is read from MuJoCo's model and data (`sim.model._model`, `sim.data._data`), never from
+images. A `World` belongs to one sim: robosuite rebuilds the sim on a hard reset, so the policy
+makes a new `World` after each reset.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+
+import mujoco
+import numpy as np
+
+from vpro_assets.core.errors import VProError
+from vpro_assets.core.mjgeom import colliding, geom_corners
+from vpro_assets.libero.env import GRIPPER_PREFIX
+from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.perturb.entities import GRIP_SITE, Entity, object_entity
+
+ROBOT_PREFIXES = ("robot0_", GRIPPER_PREFIX, "mount0_")
+FINGER_JOINTS = ("gripper0_finger_joint1", "gripper0_finger_joint2")
+
+
+class SkillFailed(VProError):
+    """A skill could not reach its goal (a grasp slipped, a joint did not move); the plan may retry."""
+
+
+@dataclass(frozen=True)
+class Box:
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @property
+    def center(self) -> np.ndarray:
+        return (self.lo + self.hi) / 2
+
+    @property
+    def size(self) -> np.ndarray:
+        return self.hi - self.lo
+
+
+class World:
+    """Named access to one sim for the oracle's skills."""
+
+    def __init__(self, sim, task: TaskRecord, holds: Callable[[tuple[str, ...]], bool]):
+        """`holds(predicate)`: LIBERO's own check of one goal predicate in this sim, e.g.
+        `("open", "wooden_cabinet_1_top_region")` (lower-case predicate names)."""
+        self.sim, self.task, self.holds = sim, task, holds
+        self.m, self.d = sim.model._model, sim.data._data
+        self.grip_site = self._id(mujoco.mjtObj.mjOBJ_SITE, GRIP_SITE)
+        self._entities: dict[str, Entity] = {}
+        self.step = 0  # control steps the oracle has acted
+        # The table (or floor) top: what the lowest movable object rests on.
+        self.table_z = min(float(self.box(inst).lo[2]) for inst, _ in task.objects) if task.objects else 0.0
+
+    # ---- names -----------------------------------------------------------------------------------
+    def _id(self, kind, name: str) -> int:
+        i = mujoco.mj_name2id(self.m, kind, name)
+        if i < 0:
+            raise VProError(f"task {self.task.key}: no {kind.name[6:].lower()} named {name!r} in the simulation")
+        return i
+
+    def entity(self, instance: str) -> Entity:
+        if instance not in self._entities:
+            self._entities[instance] = object_entity(self.m, instance)
+        return self._entities[instance]
+
+    def has_site(self, name: str) -> bool:
+        return mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_SITE, name) >= 0
+
+    # ---- the robot -------------------------------------------------------------------------------
+    def eef(self) -> np.ndarray:
+        return self.d.site_xpos[self.grip_site].copy()
+
+    def eef_mat(self) -> np.ndarray:
+        return self.d.site_xmat[self.grip_site].reshape(3, 3).copy()
+
+    @cached_property
+    def _finger_qpos(self) -> list[int]:
+        return [int(self.m.jnt_qposadr[self._id(mujoco.mjtObj.mjOBJ_JOINT, j)]) for j in FINGER_JOINTS]
+
+    def finger_gap(self) -> float:
+        """Opening of the fingers (m): about 0.08 open, near 0 closed on nothing."""
+        return float(abs(self.d.qpos[self._finger_qpos[0]]) + abs(self.d.qpos[self._finger_qpos[1]]))
+
+    def finger_axis(self) -> np.ndarray:
+        """Horizontal unit vector along which the fingers close."""
+        left = self.d.xpos[self._id(mujoco.mjtObj.mjOBJ_BODY, "gripper0_leftfinger")]
+        right = self.d.xpos[self._id(mujoco.mjtObj.mjOBJ_BODY, "gripper0_rightfinger")]
+        axis = (left - right)[:2]
+        return np.append(axis / (np.linalg.norm(axis) + 1e-9), 0.0)
+
+    @cached_property
+    def gripper_geoms(self) -> frozenset[int]:
+        return frozenset(g for g in range(self.m.ngeom) if self._body_name(self.m.geom_bodyid[g]).startswith(GRIPPER_PREFIX))
+
+    def _body_name(self, b) -> str:
+        return mujoco.mj_id2name(self.m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or ""
+
+    # ---- objects ---------------------------------------------------------------------------------
+    def geoms(self, instance: str) -> list[int]:
+        ent = self.entity(instance)
+        return colliding(self.m, ent.geoms) or list(ent.geoms)
+
+    def points(self, instance: str) -> np.ndarray:
+        """World corners of the boxes of the instance's collision geoms (N x 3)."""
+        return geom_corners(self.m, self.d, self.geoms(instance))
+
+    def box(self, instance: str) -> Box:
+        pts = self.points(instance)
+        return Box(pts.min(0), pts.max(0))
+
+    def body_pos(self, instance: str) -> np.ndarray:
+        """LIBERO's position of an object: its `<instance>_main` body (what On and In test)."""
+        return self.d.xpos[self.entity(instance).root].copy()
+
+    def site_pos(self, name: str) -> np.ndarray:
+        return self.d.site_xpos[self._id(mujoco.mjtObj.mjOBJ_SITE, name)].copy()
+
+    def site_mat(self, name: str) -> np.ndarray:
+        return self.d.site_xmat[self._id(mujoco.mjtObj.mjOBJ_SITE, name)].reshape(3, 3).copy()
+
+    def site_size(self, name: str) -> np.ndarray:
+        return self.m.site_size[self._id(mujoco.mjtObj.mjOBJ_SITE, name)].copy()
+
+    def joint(self, name: str) -> int:
+        return self._id(mujoco.mjtObj.mjOBJ_JOINT, name)
+
+    def qpos(self, joint: int) -> float:
+        return float(self.d.qpos[self.m.jnt_qposadr[joint]])
+
+    def joints_of(self, instance: str) -> list[int]:
+        """Hinge and slide joints of an articulated fixture."""
+        bodies = set(self.entity(instance).bodies)
+        return [j for j in range(self.m.njnt) if self.m.jnt_bodyid[j] in bodies
+                and self.m.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)]
+
+    def joint_name(self, joint: int) -> str:
+        return mujoco.mj_id2name(self.m, mujoco.mjtObj.mjOBJ_JOINT, joint) or ""
+
+    def joint_geoms(self, joint: int) -> list[int]:
+        """Collision geoms of the body a joint moves and of its descendants."""
+        root = int(self.m.jnt_bodyid[joint])
+        bodies = {root}
+        for b in range(root + 1, self.m.nbody):
+            if self.m.body_parentid[b] in bodies:
+                bodies.add(b)
+        return colliding(self.m, [g for g in range(self.m.ngeom) if self.m.geom_bodyid[g] in bodies])
+
+    # ---- contacts --------------------------------------------------------------------------------
+    def touching(self, instance: str) -> set[str]:
+        """Top-level body names (`..._main` stripped) of everything in contact with the instance,
+        'gripper' for the gripper."""
+        mine = set(self.entity(instance).geoms)
+        out = set()
+        for i in range(self.d.ncon):
+            c = self.d.contact[i]
+            a, b = int(c.geom1), int(c.geom2)
+            if a in mine or b in mine:
+                other = b if a in mine else a
+                if other in mine:
+                    continue
+                out.add("gripper" if other in self.gripper_geoms else self._root_name(other))
+        return out
+
+    def _root_name(self, geom: int) -> str:
+        b = int(self.m.geom_bodyid[geom])
+        while self.m.body_parentid[b] != 0:
+            b = int(self.m.body_parentid[b])
+        name = self._body_name(b)
+        return name[:-5] if name.endswith("_main") else name
+
+    def held(self, instance: str) -> bool:
+        """Both fingers in contact with the instance."""
+        mine = set(self.entity(instance).geoms)
+        left = self._finger_geoms("gripper0_leftfinger", "gripper0_finger_joint1_tip")
+        right = self._finger_geoms("gripper0_rightfinger", "gripper0_finger_joint2_tip")
+        hit_l = hit_r = False
+        for i in range(self.d.ncon):
+            c = self.d.contact[i]
+            pair = {int(c.geom1), int(c.geom2)}
+            if pair & mine:
+                hit_l |= bool(pair & left)
+                hit_r |= bool(pair & right)
+        return hit_l and hit_r
+
+    def _finger_geoms(self, *bodies: str) -> set[int]:
+        ids = {mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_BODY, b) for b in bodies} - {-1}
+        return {g for g in range(self.m.ngeom) if self.m.geom_bodyid[g] in ids}
+
+    def obstacle_geoms(self, exclude: tuple[str, ...] = ()) -> list[int]:
+        """Collision geoms of everything but the robot, the table/floor and the excluded instances."""
+        skip = set()
+        for inst in exclude:
+            skip |= set(self.entity(inst).geoms)
+        out = []
+        for g in range(self.m.ngeom):
+            if g in skip or not (self.m.geom_contype[g] or self.m.geom_conaffinity[g]):
+                continue
+            name = self._root_name(g)
+            if not name or name.startswith(ROBOT_PREFIXES) or name in ("world", "table", "floor") or "table" in name:
+                continue
+            if self.m.geom_bodyid[g] == 0:
+                continue
+            out.append(g)
+        return out
