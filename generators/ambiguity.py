@@ -10,6 +10,7 @@ visual-only geometry (never collides, never moves), so both states are seen at o
   yaw fixed to the middle of LIBERO's range (LIBERO jitters each within 0.5 mm). The real drawer or
   door keeps its state and is the only one that collides or moves.
 """
+
 from __future__ import annotations
 
 from vpro_assets.core.mjgeom import quat_mul
@@ -35,13 +36,21 @@ def object_pose(ctx: GenContext) -> SceneVariant:
     instance = ctx.new_instance(ghost.name)
     region = ctx.region_at("vpro_ghost_region", spot, half=GHOST_REGION_HALF)
     return SceneVariant(
-        case_id=ctx.case_id, generator="visual_state_ambiguity/object_pose",
+        case_id=ctx.case_id,
+        generator="visual_state_ambiguity/object_pose",
         summary=f"a visual-only upside-down copy of {target} stands next to it",
-        objects=list(ctx.base.bddl.objects), fixtures=list(ctx.base.bddl.fixtures) + [(instance, ghost.name)],
-        regions=[region], init=ctx.init_with(add=[f"(On {instance} {region.full_name})"]),
-        generated_objects=[ghost], added=[instance],
-        details={"target": target, "visual_only": instance, "pose": "inverted",
-                 "nominal_xy": [round(float(v), 4) for v in spot]},
+        objects=list(ctx.base.bddl.objects),
+        fixtures=list(ctx.base.bddl.fixtures) + [(instance, ghost.name)],
+        regions=[region],
+        init=ctx.init_with(add=[f"(On {instance} {region.full_name})"]),
+        generated_objects=[ghost],
+        added=[instance],
+        details={
+            "target": target,
+            "visual_only": instance,
+            "pose": "inverted",
+            "nominal_xy": [round(float(v), 4) for v in spot],
+        },
     )
 
 
@@ -58,25 +67,39 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
     category = ctx.task.category_of(fixture)
     joint = joints[0]
     value = (joint.low + joint.high) / 2
-    ghost = articulation_ghost(category, joint.joint.removeprefix(f"{fixture}_"), value,
-                               "open" if new_state == "open" else "closed")
+    ghost = articulation_ghost(
+        category, joint.joint.removeprefix(f"{fixture}_"), value, "open" if new_state == "open" else "closed"
+    )
     old = ctx.init_of(fixture)
     old_region = ctx.base.bddl.parsed["regions"][old.strip("()").split()[2]]
     x0, y0, x1, y1 = old_region["ranges"][0]
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
     yaw = sum(old_region["yaw_rotation"]) / 2
     h = FIXTURE_REGION_HALF
-    region = Region("vpro_fixture_region", old_region["target"], (round(cx - h, 5), round(cy - h, 5),
-                                                                  round(cx + h, 5), round(cy + h, 5)), (yaw, yaw))
+    region = Region(
+        "vpro_fixture_region",
+        old_region["target"],
+        (round(cx - h, 5), round(cy - h, 5), round(cx + h, 5), round(cy + h, 5)),
+        (yaw, yaw),
+    )
     instance = ctx.new_instance(ghost.name)
     return SceneVariant(
-        case_id=ctx.case_id, generator="visual_state_ambiguity/receptacle_openness",
+        case_id=ctx.case_id,
+        generator="visual_state_ambiguity/receptacle_openness",
         summary=f"{fixture} also shows its {joint.joint.removeprefix(fixture + '_')} {new_state}d, visual-only",
-        objects=list(ctx.base.bddl.objects), fixtures=list(ctx.base.bddl.fixtures) + [(instance, ghost.name)],
+        objects=list(ctx.base.bddl.objects),
+        fixtures=list(ctx.base.bddl.fixtures) + [(instance, ghost.name)],
         regions=[region],
-        init=ctx.init_with(replace={old: f"(On {fixture} {region.full_name})"},
-                           add=[f"(On {instance} {region.full_name})"]),
-        generated_objects=[ghost], added=[instance],
-        details={"receptacle": fixture, "visual_only": instance, "shown_state": new_state, "joint": joint.joint,
-                 "joint_value": round(value, 5)},
+        init=ctx.init_with(
+            replace={old: f"(On {fixture} {region.full_name})"}, add=[f"(On {instance} {region.full_name})"]
+        ),
+        generated_objects=[ghost],
+        added=[instance],
+        details={
+            "receptacle": fixture,
+            "visual_only": instance,
+            "shown_state": new_state,
+            "joint": joint.joint,
+            "joint_value": round(value, 5),
+        },
     )

@@ -32,6 +32,7 @@ rule's anchor) written as a 2 cm region in the BDDL, jittered per trial by up to
 trial's seed, clear of every other object; an object never overlaps the target or receptacle, so
 the task stays physically possible.
 """
+
 from __future__ import annotations
 
 import math
@@ -72,16 +73,22 @@ def choose(ctx: GenContext, rule: str) -> list[pool_mod.PoolObject]:
     size = lambda p: _size_gap(p, target)  # noqa: E731
     if rule in ("same_category", "familiar_position"):
         # Tiers: the target's category, then its family, then its grasp class; closest size first.
-        tiers = [[p for p in others if p.category == target.category],
-                 [p for p in others if p.family == target.family and p.category != target.category],
-                 [p for p in others if p.grasp == target.grasp and p.family != target.family]]
+        tiers = [
+            [p for p in others if p.category == target.category],
+            [p for p in others if p.family == target.family and p.category != target.category],
+            [p for p in others if p.grasp == target.grasp and p.family != target.family],
+        ]
         ranked = [q for tier in tiers for q in sorted(tier, key=lambda p: (size(p), p.name))]
         return _pick(ctx, ranked, lambda p: ranked.index(p), rule)
     if rule == "same_color":
         return _pick(ctx, [p for p in others if p.family != target.family], size, rule)
     if rule == "same_shape":
-        return _pick(ctx, [p for p in others if p.category != target.category],
-                     lambda p: (round(float(np.linalg.norm(p.aspect - target.aspect)), 6), size(p)), rule)
+        return _pick(
+            ctx,
+            [p for p in others if p.category != target.category],
+            lambda p: (round(float(np.linalg.norm(p.aspect - target.aspect)), 6), size(p)),
+            rule,
+        )
     if rule == "same_affordance":
         grasp = [p for p in others if p.grasp == target.grasp]
         grasp = grasp or [p for p in others if p.grasp == GRASP_ALIKE.get(target.grasp)]
@@ -93,11 +100,21 @@ def choose(ctx: GenContext, rule: str) -> list[pool_mod.PoolObject]:
     raise ctx.fail(f"unknown distractor rule {rule!r}")
 
 
-def _variant(ctx: GenContext, rule: str, category: str, spot: np.ndarray, summary: str,
-             extra_placements: Sequence[Placement] = (), generated: Sequence[GeneratedObject] = (),
-             init_replace: dict | None = None, extra_regions: Sequence[Region] = (), details: dict | None = None,
-             distractor_region_name: str | None = None, distractor_predicate: str = "On",
-             placement: dict | None = None) -> SceneVariant:
+def _variant(
+    ctx: GenContext,
+    rule: str,
+    category: str,
+    spot: np.ndarray,
+    summary: str,
+    extra_placements: Sequence[Placement] = (),
+    generated: Sequence[GeneratedObject] = (),
+    init_replace: dict | None = None,
+    extra_regions: Sequence[Region] = (),
+    details: dict | None = None,
+    distractor_region_name: str | None = None,
+    distractor_predicate: str = "On",
+    placement: dict | None = None,
+) -> SceneVariant:
     """`placement`: Placement fields of the added object other than instance and anchor (default:
     jittered by up to JITTER around the spot)."""
     instance = ctx.new_instance(category)
@@ -108,13 +125,23 @@ def _variant(ctx: GenContext, rule: str, category: str, spot: np.ndarray, summar
         distractor_region_name = region.full_name
     init = ctx.init_with(replace=init_replace, add=[f"({distractor_predicate} {instance} {distractor_region_name})"])
     return SceneVariant(
-        case_id=ctx.case_id, generator=f"task_relevant_distractors/{rule}", summary=summary,
-        objects=list(ctx.base.bddl.objects) + [(instance, category)], fixtures=list(ctx.base.bddl.fixtures),
-        regions=regions, init=init,
+        case_id=ctx.case_id,
+        generator=f"task_relevant_distractors/{rule}",
+        summary=summary,
+        objects=list(ctx.base.bddl.objects) + [(instance, category)],
+        fixtures=list(ctx.base.bddl.fixtures),
+        regions=regions,
+        init=init,
         placements=list(extra_placements) + [Placement(instance, tuple(spot), **(placement or {"r_max": JITTER}))],
-        generated_objects=list(generated), added=[instance],
-        details={"rule": rule, "distractor": instance, "distractor_object": category,
-                 "nominal_xy": [round(float(v), 4) for v in spot], **(details or {})},
+        generated_objects=list(generated),
+        added=[instance],
+        details={
+            "rule": rule,
+            "distractor": instance,
+            "distractor_object": category,
+            "nominal_xy": [round(float(v), 4) for v in spot],
+            **(details or {}),
+        },
     )
 
 
@@ -147,8 +174,9 @@ def same_shape(ctx: GenContext) -> SceneVariant:
 def same_affordance(ctx: GenContext) -> SceneVariant:
     """Adds an object grasped the same way as the target (same grasp class)."""
     chosen, spot = _near_target(ctx, "same_affordance")
-    return _variant(ctx, "same_affordance", chosen.name, spot,
-                    f"adds {chosen.name}, grasped like the target ({chosen.grasp})")
+    return _variant(
+        ctx, "same_affordance", chosen.name, spot, f"adds {chosen.name}, grasped like the target ({chosen.grasp})"
+    )
 
 
 @register("task_relevant_distractors/same_color")
@@ -159,9 +187,15 @@ def same_color(ctx: GenContext) -> SceneVariant:
     chosen, spot = _near_target(ctx, "same_color")
     color = ctx.target_pool().color
     generated = recolored_object(chosen.name, color)
-    return _variant(ctx, "same_color", generated.name, spot,
-                    f"adds {chosen.name} recoloured to the target's colour #{bytes(color).hex()}",
-                    generated=[generated], details={"source_object": chosen.name, "color": list(color)})
+    return _variant(
+        ctx,
+        "same_color",
+        generated.name,
+        spot,
+        f"adds {chosen.name} recoloured to the target's colour #{bytes(color).hex()}",
+        generated=[generated],
+        details={"source_object": chosen.name, "color": list(color)},
+    )
 
 
 def _on_table(ctx: GenContext, instance: str) -> bool:
@@ -176,7 +210,9 @@ def familiar_position(ctx: GenContext) -> SceneVariant:
     ranked = choose(ctx, "familiar_position")
     familiar = ctx.familiar_xy(target)
     on_table = _on_table(ctx, target)
-    fits = [p for p in ranked if on_table and ctx.clearance(familiar, p.footprint_radius, ignore=(target,)) >= FAMILIAR_ROOM]
+    fits = [
+        p for p in ranked if on_table and ctx.clearance(familiar, p.footprint_radius, ignore=(target,)) >= FAMILIAR_ROOM
+    ]
     take_place = not fits
     if fits:
         chosen = fits[0]
@@ -184,8 +220,10 @@ def familiar_position(ctx: GenContext) -> SceneVariant:
         width = max(ctx.target_pool().footprint)
         narrow = [p for p in ranked if max(p.footprint) <= TAKE_PLACE_WIDTH * width]
         if not narrow:
-            raise ctx.fail(f"no familiar_position candidate fits at the familiar position or is as narrow as "
-                           f"{target} ({width:.3f} m) to take its place")
+            raise ctx.fail(
+                f"no familiar_position candidate fits at the familiar position or is as narrow as "
+                f"{target} ({width:.3f} m) to take its place"
+            )
         chosen = narrow[0]
     t_radius = ctx.target_pool().footprint_radius
     reach = t_radius + chosen.footprint_radius + 0.03
@@ -194,17 +232,24 @@ def familiar_position(ctx: GenContext) -> SceneVariant:
     old = ctx.init_of(target)
     predicate, _, old_region = old.strip("()").split()
     new_region = ctx.region_at("vpro_displaced_region", displaced)
-    where = (f"the target's place ({predicate.lower()} {old_region})" if take_place
-             else "the target's familiar position")
+    where = f"the target's place ({predicate.lower()} {old_region})" if take_place else "the target's familiar position"
     return _variant(
-        ctx, "familiar_position", chosen.name, familiar,
+        ctx,
+        "familiar_position",
+        chosen.name,
+        familiar,
         f"adds {chosen.name} at {where}; the target starts {np.linalg.norm(displaced - familiar):.2f} m away",
         extra_placements=[Placement(target, tuple(displaced), 0.0, JITTER)],
-        init_replace={old: f"(On {target} {new_region.full_name})"}, extra_regions=[new_region],
-        distractor_region_name=old_region, distractor_predicate=predicate,
+        init_replace={old: f"(On {target} {new_region.full_name})"},
+        extra_regions=[new_region],
+        distractor_region_name=old_region,
+        distractor_predicate=predicate,
         placement={"take_place_of": target} if take_place else None,
-        details={"familiar_xy": [round(float(v), 4) for v in familiar], "takes_target_place": take_place,
-                 "target_displaced_xy": [round(float(v), 4) for v in displaced]},
+        details={
+            "familiar_xy": [round(float(v), 4) for v in familiar],
+            "takes_target_place": take_place,
+            "target_displaced_xy": [round(float(v), 4) for v in displaced],
+        },
     )
 
 
@@ -228,12 +273,20 @@ def trajectory_obstacle(ctx: GenContext) -> SceneVariant:
         except GeneratorError:
             chosen, best, path_name = _crowded_path_spot(ctx, start, end)
             placement = {"r_max": 0.0, "margin": CROWDED_CLEARANCE / 2}  # no jitter: its room holds in every trial
-    return _variant(ctx, "trajectory_obstacle", chosen.name, best,
-                    f"adds {chosen.name} on the path from the target to its destination" if path_name == "carrying"
-                    else f"adds {chosen.name} on the path the gripper takes to reach the target",
-                    placement=placement,
-                    details={"path": [[round(float(v), 4) for v in start], [round(float(v), 4) for v in end]],
-                             **({} if path_name == "carrying" else {"obstructs": path_name})})
+    return _variant(
+        ctx,
+        "trajectory_obstacle",
+        chosen.name,
+        best,
+        f"adds {chosen.name} on the path from the target to its destination"
+        if path_name == "carrying"
+        else f"adds {chosen.name} on the path the gripper takes to reach the target",
+        placement=placement,
+        details={
+            "path": [[round(float(v), 4) for v in start], [round(float(v), 4) for v in end]],
+            **({} if path_name == "carrying" else {"obstructs": path_name}),
+        },
+    )
 
 
 def _crowded_path_spot(ctx: GenContext, start: np.ndarray, end: np.ndarray):
@@ -246,8 +299,10 @@ def _crowded_path_spot(ctx: GenContext, start: np.ndarray, end: np.ndarray):
         if xy is not None and room >= CROWDED_CLEARANCE:
             return chosen, xy, name
         tried.append(f"{name} path: at most {room * 1000:.1f} mm")
-    raise ctx.fail(f"no room for a trajectory obstacle ({chosen.name}) near the path to the destination "
-                   f"({end[0]:.3f}, {end[1]:.3f}): {'; '.join(tried)}")
+    raise ctx.fail(
+        f"no room for a trajectory obstacle ({chosen.name}) near the path to the destination "
+        f"({end[0]:.3f}, {end[1]:.3f}): {'; '.join(tried)}"
+    )
 
 
 def _roomiest_near(ctx: GenContext, a: np.ndarray, b: np.ndarray, radius: float):

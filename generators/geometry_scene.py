@@ -3,6 +3,7 @@ object of the geometry pipeline (`vpro_assets.objects.deformed`, which owns mesh
 exports). The target keeps its instance name, so the language and goal are unchanged; only its
 category in the BDDL becomes the registered deformed object. Trials start from LIBERO's initial
 state of the same index with the deformed target lowered onto the table at the same place."""
+
 from __future__ import annotations
 
 from vpro_assets.benchmark import taxonomy as tx
@@ -18,7 +19,8 @@ def _deformed(category: str, deformation: str, severity: int) -> GeneratedObject
         name=tg.object_name(category, deformation, severity),
         # Returns the pipeline's record (xml_path, and per-stage timings the build adds up).
         write=lambda root: tg.generate_deformed_object(category, deformation, severity, root),
-        template=category, shared=True,
+        template=category,
+        shared=True,
     )
 
 
@@ -28,10 +30,14 @@ def _make(deformation: str, severity: int):
         obj = _deformed(category, deformation, severity)
         objects = [(i, obj.name if i == target else c) for i, c in ctx.base.bddl.objects]
         return SceneVariant(
-            case_id=ctx.case_id, generator=f"target_geometry_variation/{deformation}-s{severity}",
+            case_id=ctx.case_id,
+            generator=f"target_geometry_variation/{deformation}-s{severity}",
             summary=f"{target} replaced by {obj.name} ({deformation}, severity {severity})",
-            objects=objects, fixtures=list(ctx.base.bddl.fixtures), init=ctx.init_with(),
-            placements=[Placement(target, (0.0, 0.0), keep_xy=True)], generated_objects=[obj],
+            objects=objects,
+            fixtures=list(ctx.base.bddl.fixtures),
+            init=ctx.init_with(),
+            placements=[Placement(target, (0.0, 0.0), keep_xy=True)],
+            generated_objects=[obj],
             details={"target": target, "deformed_object": obj.name},
         )
 

@@ -12,6 +12,7 @@
   there is one (v2). The BDDL is the base task's (LIBERO's regions hold no orientation): the
   frozen initial states carry the pose.
 """
+
 from __future__ import annotations
 
 from vpro_assets.scene.context import GenContext
@@ -54,10 +55,13 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
     replace, joints, new_state = openness_flip(ctx)
     add = [replace.pop("__add__")] if "__add__" in replace else []
     return SceneVariant(
-        case_id=ctx.case_id, generator="task_precondition_variation/receptacle_openness",
+        case_id=ctx.case_id,
+        generator="task_precondition_variation/receptacle_openness",
         summary=f"{ctx.task.receptacle} starts {'closed' if new_state == 'close' else 'open'}",
-        objects=list(ctx.base.bddl.objects), fixtures=list(ctx.base.bddl.fixtures),
-        init=ctx.init_with(replace=replace, add=add), joints=joints,
+        objects=list(ctx.base.bddl.objects),
+        fixtures=list(ctx.base.bddl.fixtures),
+        init=ctx.init_with(replace=replace, add=add),
+        joints=joints,
         details={"receptacle": ctx.task.receptacle, "state": new_state, "joints": [j.joint for j in joints]},
     )
 
@@ -67,10 +71,12 @@ def object_pose(ctx: GenContext) -> SceneVariant:
     """The target starts upside down at its usual place (or next to it, clear of its neighbours)."""
     target = ctx.task.target
     return SceneVariant(
-        case_id=ctx.case_id, generator="task_precondition_variation/object_pose",
+        case_id=ctx.case_id,
+        generator="task_precondition_variation/object_pose",
         summary=f"{target} starts upside down",
-        objects=list(ctx.base.bddl.objects), fixtures=list(ctx.base.bddl.fixtures), init=ctx.init_with(),
-        placements=[Placement(target, (0.0, 0.0), margin=0.005, keep_xy=True, invert=True,
-                              clear_of_neighbours=True)],
+        objects=list(ctx.base.bddl.objects),
+        fixtures=list(ctx.base.bddl.fixtures),
+        init=ctx.init_with(),
+        placements=[Placement(target, (0.0, 0.0), margin=0.005, keep_xy=True, invert=True, clear_of_neighbours=True)],
         details={"target": target, "pose": "inverted"},
     )

@@ -1,5 +1,6 @@
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from vpro_assets.benchmark import applicability as ap
 from vpro_assets.benchmark import taxonomy as tx
@@ -39,6 +40,6 @@ def test_selection_is_exact_and_keeps_observation_settings_whole(tasks):
     for s in tx.SETTINGS:
         meaningful = ap.meaningful_tasks(s, tasks)
         assert chosen[s.id], s.id
-        assert set(t.key for t in chosen[s.id]) <= set(t.key for t in meaningful)
+        assert {t.key for t in chosen[s.id]} <= {t.key for t in meaningful}
         if tx.category(s.category).level == tx.OBSERVATION:
             assert chosen[s.id] == meaningful

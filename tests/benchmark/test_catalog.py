@@ -35,7 +35,11 @@ def test_observation_cases_reference_libero_initial_states(built_catalog, tasks)
     by_key = {t.key: t for t in tasks}
     for c in built_catalog["cases"]:
         if c["level"] == "observation":
-            assert c["init_states"] == {"source": "libero", "file": by_key[c["task"]].init_relpath, "rows": list(range(10))}
+            assert c["init_states"] == {
+                "source": "libero",
+                "file": by_key[c["task"]].init_relpath,
+                "rows": list(range(10)),
+            }
 
 
 @pytest.fixture()
@@ -72,12 +76,15 @@ def test_non_canonical_formatting_is_reported(catalog_copy):
     assert diffs and "canonical" in diffs[0]
 
 
-@pytest.mark.parametrize("damage, message", [
-    (lambda text: text[: len(text) // 2], "truncated"),
-    (lambda text: text.replace('"schema_version": 1', '"schema_version": 99'), "schema_version 99"),
-    (lambda text: "[]", "not a catalog"),
-    (lambda text: text.replace('"totals": {\n   "cases": 3296', '"totals": {\n   "cases": 3297'), "3297"),
-])
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda text: text[: len(text) // 2], "truncated"),
+        (lambda text: text.replace('"schema_version": 1', '"schema_version": 99'), "schema_version 99"),
+        (lambda text: "[]", "not a catalog"),
+        (lambda text: text.replace('"totals": {\n   "cases": 3296', '"totals": {\n   "cases": 3297'), "3297"),
+    ],
+)
 def test_damaged_catalogs_give_clear_errors(catalog_copy, damage, message):
     catalog_copy.write_text(damage(catalog_copy.read_text()))
     with pytest.raises(CatalogError) as err:
@@ -97,7 +104,11 @@ def test_every_setting_and_suite_has_cases(built_catalog):
     per_setting = Counter(c["setting"] for c in built_catalog["cases"])
     assert min(per_setting.values()) >= 1
     assert set(Counter(c["suite"] for c in built_catalog["cases"])) == {
-        "libero_spatial", "libero_object", "libero_goal", "libero_10"}
+        "libero_spatial",
+        "libero_object",
+        "libero_goal",
+        "libero_10",
+    }
 
 
 def test_taxonomy_doc_is_current():

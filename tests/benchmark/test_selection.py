@@ -1,9 +1,9 @@
 import pytest
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark.catalog import load_catalog
-from vpro_assets.core.errors import UnknownIdError
 from vpro_assets.benchmark.selection import select_cases
+from vpro_assets.core import paths
+from vpro_assets.core.errors import UnknownIdError
 
 
 @pytest.fixture(scope="module")
@@ -21,11 +21,14 @@ def test_filters_by_every_kind_of_id(catalog):
     assert len(select_cases(catalog, ["vpro/camera_staleness/wrist-freeze-v1"])) == 40
     assert len(select_cases(catalog, ["camera_staleness/wrist-freeze-v1"])) == 40
     assert ids(select_cases(catalog, ["libero_goal-03/camera_staleness/wrist-freeze-v1"])) == [
-        "libero_goal-03/camera_staleness/wrist-freeze-v1"]
+        "libero_goal-03/camera_staleness/wrist-freeze-v1"
+    ]
     assert {c["suite"] for c in select_cases(catalog, ["libero_goal"])} == {"libero_goal"}
     assert {c["task"] for c in select_cases(catalog, ["libero_goal-03"])} == {"libero_goal-03"}
     assert {c["dimension"] for c in select_cases(catalog, ["camera_staleness", "visual_source_consistency"])} == {
-        "camera_staleness", "visual_source_consistency"}
+        "camera_staleness",
+        "visual_source_consistency",
+    }
 
 
 def test_normal_baselines(catalog):

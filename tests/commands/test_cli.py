@@ -1,4 +1,5 @@
 """The `vpro` command: help everywhere, clear one-line errors, snapshots."""
+
 import subprocess
 import sys
 
@@ -24,8 +25,14 @@ def subcommands(parser, prefix=()):
 def test_every_subcommand_has_help():
     parser = build_parser()
     found = list(subcommands(parser))
-    assert {p for p, _ in found} >= {("tasks",), ("taxonomy",), ("catalog",), ("catalog", "build"),
-                                    ("catalog", "verify"), ("env",)}
+    assert {p for p, _ in found} >= {
+        ("tasks",),
+        ("taxonomy",),
+        ("catalog",),
+        ("catalog", "build"),
+        ("catalog", "verify"),
+        ("env",),
+    }
     for path, sub in found:
         text = sub.format_help()
         assert sub.description, f"`vpro {' '.join(path)}` has no description"
@@ -38,12 +45,18 @@ def test_catalog_verify_passes_on_the_committed_catalog():
     assert "3296 cases, 96 settings, 12 categories, 4 dimensions, 40 tasks" in proc.stdout
 
 
-@pytest.mark.parametrize("args, expected", [
-    (("tasks", "libero_spatal-03"), "did you mean: libero_spatial-03"),
-    (("taxonomy", "--category", "camera_stalenes"), "did you mean: camera_staleness"),
-    (("catalog", "show", "libero_goal-03/camera_staleness/wrist-delay9-v1"), "libero_goal-03/camera_staleness/wrist-delay"),
-    (("env", "libero_goal-99", "--snapshot", "/tmp/x.png"), "unknown task id"),
-])
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (("tasks", "libero_spatal-03"), "did you mean: libero_spatial-03"),
+        (("taxonomy", "--category", "camera_stalenes"), "did you mean: camera_staleness"),
+        (
+            ("catalog", "show", "libero_goal-03/camera_staleness/wrist-delay9-v1"),
+            "libero_goal-03/camera_staleness/wrist-delay",
+        ),
+        (("env", "libero_goal-99", "--snapshot", "/tmp/x.png"), "unknown task id"),
+    ],
+)
 def test_unknown_ids_give_suggestions_not_tracebacks(args, expected):
     proc = run(*args)
     assert proc.returncode == 2
@@ -80,8 +93,18 @@ def test_env_snapshot_writes_both_views(tmp_path):
 
 @pytest.mark.parametrize("results", ["/proc/no-such-dir/r.sqlite", "/proc/r.sqlite"])
 def test_unwritable_results_path_is_a_one_line_error(results):
-    proc = run("eval", "--policy", "noop", "--select", "libero_goal-03/normal", "--trials", "1",
-               "--results", results, "--no-progress")
+    proc = run(
+        "eval",
+        "--policy",
+        "noop",
+        "--select",
+        "libero_goal-03/normal",
+        "--trials",
+        "1",
+        "--results",
+        results,
+        "--no-progress",
+    )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     errors = [line for line in proc.stderr.splitlines() if "error" in line]

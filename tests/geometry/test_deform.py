@@ -1,21 +1,15 @@
 """Unit and property tests of the deformation maps, mesh refinement and manifold repair (no coacd)."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from vpro_assets.geometry.deform import DEFORMATIONS
-from vpro_assets.geometry.deform import check_amount
-from vpro_assets.geometry.deform import deformation_map
-from vpro_assets.geometry.deform import upright_frame
 from vpro_assets.core.errors import InvalidParameterError
-from vpro_assets.geometry.meshes import MeshError
-from vpro_assets.geometry.meshes import obj_bytes
-from vpro_assets.geometry.meshes import read_msh
-from vpro_assets.geometry.meshes import soup_to_indexed
+from vpro_assets.geometry.deform import DEFORMATIONS, check_amount, deformation_map, upright_frame
+from vpro_assets.geometry.meshes import MeshError, obj_bytes, read_msh, soup_to_indexed
 from vpro_assets.geometry.refine import refine_soup
-from vpro_assets.geometry.solid import manifold_arrays
-from vpro_assets.geometry.solid import repair_part
+from vpro_assets.geometry.solid import manifold_arrays, repair_part
 
 
 def box_soup(extents=(0.08, 0.04, 0.02)):
@@ -34,7 +28,9 @@ def refined_box():
     return manifold
 
 
-@pytest.mark.parametrize("deformation, amount", [("taper", 0.55), ("multipeak", 0.18), ("twist", 60.0), ("asymmetric", 0.3)])
+@pytest.mark.parametrize(
+    "deformation, amount", [("taper", 0.55), ("multipeak", 0.18), ("twist", 60.0), ("asymmetric", 0.3)]
+)
 def test_maps_move_points_only_horizontally_and_keep_the_solid_closed(refined_box, deformation, amount):
     import trimesh
 
@@ -68,15 +64,17 @@ def test_up_axis_y_deforms_about_y():
     assert moved[1, 0] / moved[0, 0] == pytest.approx(0.5)
 
 
-@pytest.mark.parametrize("deformation, amount", [("taper", 0.0), ("twist", float("nan")), ("bend", 1.0), ("multipeak", 0.9)])
+@pytest.mark.parametrize(
+    "deformation, amount", [("taper", 0.0), ("twist", float("nan")), ("bend", 1.0), ("multipeak", 0.9)]
+)
 def test_bad_amounts_and_names_are_refused(deformation, amount):
     with pytest.raises(InvalidParameterError, match=deformation):
         check_amount(deformation, amount)
 
 
 def test_every_taxonomy_geometry_setting_has_a_valid_amount():
-    from vpro_assets.geometry.deform import amount_of
     from vpro_assets.benchmark.taxonomy import settings_of
+    from vpro_assets.geometry.deform import amount_of
 
     settings = settings_of("target_geometry_variation")
     assert len(settings) == 12
@@ -139,9 +137,8 @@ def test_written_visual_mesh_has_the_original_texture_coordinates_in_mujoco(tmp_
     reads an OBJ): an undeformed part written as OBJ must give MuJoCo the same coordinates."""
     import mujoco
 
+    from vpro_assets.geometry.meshes import load_libero_object, normals_to_indexed
     from vpro_assets.objects.deformed import libero_object_xml
-    from vpro_assets.geometry.meshes import load_libero_object
-    from vpro_assets.geometry.meshes import normals_to_indexed
 
     xml = libero_object_xml("cream_cheese")
     part = load_libero_object("cream_cheese", xml).parts[0]
@@ -153,8 +150,9 @@ def test_written_visual_mesh_has_the_original_texture_coordinates_in_mujoco(tmp_
     def texcoords(mesh_file, scale):
         model = mujoco.MjModel.from_xml_string(
             f'<mujoco><asset><mesh name="m" file="{mesh_file}" scale="{scale}"/></asset>'
-            f'<worldbody><geom type="mesh" mesh="m" contype="0" conaffinity="0"/></worldbody></mujoco>')
-        coords = model.mesh_texcoord[model.mesh_texcoordadr[0]:model.mesh_texcoordadr[0] + model.mesh_texcoordnum[0]]
+            f'<worldbody><geom type="mesh" mesh="m" contype="0" conaffinity="0"/></worldbody></mujoco>'
+        )
+        coords = model.mesh_texcoord[model.mesh_texcoordadr[0] : model.mesh_texcoordadr[0] + model.mesh_texcoordnum[0]]
         return np.unique(np.round(coords, 4), axis=0)
 
     original = texcoords(xml.parent / mesh_el.get("file"), mesh_el.get("scale", "1 1 1"))

@@ -1,12 +1,10 @@
 """Every base task builds headless, resets, loads its first LIBERO initial state and steps."""
+
 import numpy as np
 import pytest
 
-from vpro_assets.libero.env import CAMERAS
-from vpro_assets.libero.env import NOOP_ACTION
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import task_env
 from vpro_assets.libero.bridge import suite_task_names
+from vpro_assets.libero.env import CAMERAS, NOOP_ACTION, libero_init_states, task_env
 
 KEYS = [f"{suite}-{i:02d}" for suite, names in suite_task_names().items() for i in range(len(names))]
 RES = 128  # render cost barely depends on resolution; 128 keeps the 40 builds light
@@ -43,9 +41,12 @@ def test_interpreter_exit_with_a_live_env_prints_no_gl_teardown_errors(tmp_path)
     import subprocess
     import sys
 
-    script = ("from vpro_assets.libero.env import make_env\nfrom vpro_assets.libero.tasks import get_task\n"
-              "env = make_env(get_task('libero_spatial-00'), 32)\nenv.reset()\nprint('built')\n")
-    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
-                          env=dict(os.environ))
+    script = (
+        "from vpro_assets.libero.env import make_env\nfrom vpro_assets.libero.tasks import get_task\n"
+        "env = make_env(get_task('libero_spatial-00'), 32)\nenv.reset()\nprint('built')\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=300, env=dict(os.environ)
+    )
     assert proc.returncode == 0 and proc.stdout.strip() == "built", proc.stderr[-2000:]
     assert "Exception ignored" not in proc.stderr, proc.stderr[-2000:]

@@ -1,4 +1,5 @@
 """LIBERO is configured without prompting and without the user's home; GL backend selection."""
+
 import os
 import subprocess
 import sys
@@ -6,9 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from vpro_assets.core.errors import LiberoSetupError, VProError
 from vpro_assets.libero import gl as gl_backend
-from vpro_assets.core.errors import LiberoSetupError
-from vpro_assets.core.errors import VProError
 from vpro_assets.libero.init_states import read_init_states
 
 
@@ -17,10 +17,13 @@ def test_libero_imports_without_prompt_or_home(tmp_path):
     home.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("LIBERO_CONFIG_PATH", "VPRO_LIBERO_CONFIG_DIR")}
     env.update(HOME=str(home), VPRO_LIBERO_CONFIG_DIR=str(tmp_path / "cfg"))
-    code = ("from vpro_assets.libero import bridge as b; m = b.libero(); "
-            "print(m.get_libero_path('bddl_files')); print(m.get_assets_path())")
-    proc = subprocess.run([sys.executable, "-c", code], env=env, stdin=subprocess.DEVNULL,
-                          capture_output=True, text=True, timeout=120)
+    code = (
+        "from vpro_assets.libero import bridge as b; m = b.libero(); "
+        "print(m.get_libero_path('bddl_files')); print(m.get_assets_path())"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], env=env, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120
+    )
     assert proc.returncode == 0, proc.stderr
     bddl, assets = proc.stdout.split()[-2:]
     assert Path(bddl, "libero_goal").is_dir() and Path(assets, "stable_scanned_objects").is_dir()
@@ -71,7 +74,14 @@ def test_a_users_script_imports_libero_after_the_toolkit_without_prompt(tmp_path
     config = paths.libero_config_dir() / "config.yaml"
     before = config.stat().st_mtime_ns, config.read_bytes()
     code = "import vpro_assets\nfrom libero.libero.envs import OffScreenRenderEnv\nprint('ok')"
-    proc = subprocess.run([sys.executable, "-c", code], env=env, stdin=subprocess.DEVNULL,
-                          capture_output=True, text=True, timeout=300, cwd=paths.REPO_ROOT.parent)
+    proc = subprocess.run(
+        [sys.executable, "-c", code],
+        env=env,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=paths.REPO_ROOT.parent,
+    )
     assert proc.returncode == 0 and proc.stdout.strip().endswith("ok"), proc.stderr[-2000:]
     assert (config.stat().st_mtime_ns, config.read_bytes()) == before

@@ -1,7 +1,7 @@
 import pytest
 
-from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.core.errors import UnknownIdError
+from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.tasks import get_task
 
 

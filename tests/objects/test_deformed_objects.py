@@ -6,6 +6,7 @@ one-triangle hole, repaired by hole filling) and one variant of a multi-part, op
 each object's input key). The slow marker runs every geometry target category with the default
 search.
 """
+
 from __future__ import annotations
 
 import json
@@ -13,14 +14,15 @@ import json
 import numpy as np
 import pytest
 
-from vpro_assets.objects.deformed import UP_AXES
-from vpro_assets.objects.deformed import default_coacd_params
-from vpro_assets.objects.deformed import generate_deformed_object
-from vpro_assets.objects.deformed import load_generated
-from vpro_assets.objects.deformed import object_name
-from vpro_assets.objects.deformed import register_generated
-from vpro_assets.geometry.convex import FAST
-from vpro_assets.geometry.convex import MAX_HULLS
+from vpro_assets.geometry.convex import FAST, MAX_HULLS
+from vpro_assets.objects.deformed import (
+    UP_AXES,
+    default_coacd_params,
+    generate_deformed_object,
+    load_generated,
+    object_name,
+    register_generated,
+)
 from vpro_assets.objects.mjcf import drop_test
 
 DEFORMATIONS = ("taper", "multipeak", "twist", "asymmetric")
@@ -52,11 +54,9 @@ def small_objects(out_dir):
 
 @pytest.fixture(scope="module")
 def original_solid():
-    from vpro_assets.objects.deformed import libero_object_xml
     from vpro_assets.geometry.meshes import load_libero_object
-    from vpro_assets.geometry.solid import manifold_arrays
-    from vpro_assets.geometry.solid import repair_part
-    from vpro_assets.geometry.solid import union
+    from vpro_assets.geometry.solid import manifold_arrays, repair_part, union
+    from vpro_assets.objects.deformed import libero_object_xml
 
     source = load_libero_object(SMALL, libero_object_xml(SMALL))
     return manifold_arrays(union([repair_part(p.name, p.corners)[0] for p in source.parts]))
@@ -170,10 +170,9 @@ def test_mjcf_object_compiles_without_warning_and_rests_on_a_plane(small_objects
 
 
 def test_mass_is_the_original_objects_mass_in_libero(small_objects):
-    from vpro_assets.objects.deformed import libero_object_xml
-
     import mujoco
 
+    from vpro_assets.objects.deformed import libero_object_xml
     from vpro_assets.objects.mjcf import drop_test_xml
 
     original = mujoco.MjModel.from_xml_string(drop_test_xml(libero_object_xml(SMALL)))
@@ -204,9 +203,8 @@ def test_exports_reopen_with_usd_core_yourdfpy_and_mujoco(small_objects):
 
 def test_generated_object_registers_and_builds_in_a_libero_scene(small_objects, tmp_path):
     from vpro_assets.libero import bridge as libero_bridge
-    from vpro_assets.libero.env import NOOP_ACTION
-    from vpro_assets.objects.registry import unregister_object
     from vpro_assets.libero.tasks import get_task
+    from vpro_assets.objects.registry import unregister_object
 
     obj = small_objects[("twist", 3)]
     cls = register_generated(obj)
@@ -233,7 +231,12 @@ def _settle_in_libero(bddl, instance, steps=40, with_geoms=False):
     from vpro_assets.libero.env import NOOP_ACTION
 
     env = libero_bridge.libero_envs().OffScreenRenderEnv(
-        bddl_file_name=str(bddl), has_offscreen_renderer=False, use_camera_obs=False, camera_heights=64, camera_widths=64)
+        bddl_file_name=str(bddl),
+        has_offscreen_renderer=False,
+        use_camera_obs=False,
+        camera_heights=64,
+        camera_widths=64,
+    )
     try:
         env.reset()
         sim = env.sim
@@ -253,8 +256,9 @@ def test_multi_part_open_surface_object(out_dir):
     """The wine bottle: three parts, two of them open surfaces (level-set remesh), joined by union."""
     import trimesh
 
-    obj = generate_deformed_object("wine_bottle", "asymmetric", 2, out_dir,
-                                   coacd_params=fast("wine_bottle", "asymmetric", 2))
+    obj = generate_deformed_object(
+        "wine_bottle", "asymmetric", 2, out_dir, coacd_params=fast("wine_bottle", "asymmetric", 2)
+    )
     methods = [r["method"] for r in obj.record["repair"]]
     assert len(methods) == 3 and "level_set" in methods
     assert sum(f.role == "visual_mesh" for f in obj.files) == 3
@@ -265,11 +269,9 @@ def test_multi_part_open_surface_object(out_dir):
 
 
 def test_bad_inputs_give_clear_errors_and_write_nothing(tmp_path, monkeypatch):
-    from vpro_assets.core.errors import InvalidParameterError
-    from vpro_assets.core.errors import UnknownIdError
+    from vpro_assets.core.errors import InvalidParameterError, UnknownIdError
     from vpro_assets.geometry.meshes import MeshError
-    from vpro_assets.objects.registry import register_mjcf_object
-    from vpro_assets.objects.registry import unregister_object
+    from vpro_assets.objects.registry import register_mjcf_object, unregister_object
 
     with pytest.raises(UnknownIdError, match="akita_blak_bowl"):
         generate_deformed_object("akita_blak_bowl", "taper", 1, tmp_path / "a")
@@ -300,8 +302,9 @@ def test_bad_inputs_give_clear_errors_and_write_nothing(tmp_path, monkeypatch):
         # Two triangles cannot enclose a volume: named, and nothing written either.
         two = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0], [0, 1, 0]]], np.float32) * 0.05
         header = np.array([6, 0, 0, 2], "<i4").tobytes()
-        (broken / "visual" / "broken_vis.msh").write_bytes(header + two.reshape(-1, 3).tobytes()
-                                                          + np.arange(6, dtype="<i4").tobytes())
+        (broken / "visual" / "broken_vis.msh").write_bytes(
+            header + two.reshape(-1, 3).tobytes() + np.arange(6, dtype="<i4").tobytes()
+        )
         unregister_object("vpro_test_broken_mesh")
         register_mjcf_object("vpro_test_broken_mesh", broken / "broken.xml")
         with pytest.raises(MeshError, match="broken_vis.*2 triangles"):

@@ -1,12 +1,10 @@
 """Registering MJCF object files with LIBERO: explicit names, clashes refused, idempotent."""
+
 from __future__ import annotations
 
 import pytest
 
-from vpro_assets.objects.registry import ObjectRegistryError
-from vpro_assets.objects.registry import content_sha256
-from vpro_assets.objects.registry import register_mjcf_object
-from vpro_assets.objects.registry import unregister_object
+from vpro_assets.objects.registry import ObjectRegistryError, content_sha256, register_mjcf_object, unregister_object
 
 OBJECT_XML = """<mujoco model="{model}">
   <asset>

@@ -5,17 +5,17 @@ a recoloured distractor, which registers a generated object; a precondition that
 articulation; a visual-only ambiguity copy). Full set (every scene case, including geometry cases whose deformed meshes take
 coacd tens of seconds each): `.venv/bin/python -m pytest -m slow tests/scene/test_build.py`.
 """
+
 from __future__ import annotations
 
 import dataclasses
 import json
 
 import pytest
+from conftest import BUILT_SCENE_CASE
 
 from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.core import paths
-
-from conftest import BUILT_SCENE_CASE
 
 SAMPLE = (
     BUILT_SCENE_CASE,
@@ -64,9 +64,8 @@ def test_sample_case_builds_validates_and_rebuilds_identically(catalog, out_dir,
 
 
 def test_state_that_cannot_settle_names_case_and_leaves_nothing(catalog, out_dir, monkeypatch):
-    from vpro_assets.scene import plugins
     from generators import distractors
-    from vpro_assets.scene import build
+    from vpro_assets.scene import build, plugins
     from vpro_assets.scene.init_gen import InitStateError
     from vpro_assets.scene.variant import Placement
 
@@ -88,9 +87,8 @@ def test_state_that_cannot_settle_names_case_and_leaves_nothing(catalog, out_dir
 
 
 def test_unknown_object_in_a_generator_names_the_case(catalog, out_dir, monkeypatch):
-    from vpro_assets.scene import plugins
     from vpro_assets.core.errors import VProError
-    from vpro_assets.scene import build
+    from vpro_assets.scene import build, plugins
 
     cid = "libero_spatial-00/task_relevant_distractors/same_affordance-v1"
 
@@ -109,8 +107,8 @@ def test_every_scene_case_builds_validates_and_matches_the_catalog(catalog):
     """The full set, in the repository's out/ (content-addressed: what `vpro build` already built is
     only checked, so after a full build this costs the validation, ~20 min with 2 workers): every
     scene case builds, validates, and its files have the hashes the committed catalog records."""
-    from vpro_assets.scene import build
     from vpro_assets.benchmark.lock import check_built
+    from vpro_assets.scene import build
     from vpro_assets.scene.validate import validate
 
     scene = [c for c in catalog["cases"] if c["level"] == "scene"]
@@ -175,15 +173,19 @@ def test_build_places_fixtures_where_the_rollout_env_has_them():
 
     from vpro_assets.libero import bridge as libero_bridge
     from vpro_assets.libero.env import make_env
-    from vpro_assets.scene import sim
     from vpro_assets.libero.tasks import get_task
+    from vpro_assets.scene import sim
 
     task = get_task("libero_spatial-04")  # a bowl in the cabinet's drawer
 
     def fixtures(env):
         raw = sim.raw(env)
-        return np.array([raw.sim.model.body_pos[raw.sim.model.body_name2id(f.root_body)]
-                         for _, f in sorted(raw.fixtures_dict.items())])
+        return np.array(
+            [
+                raw.sim.model.body_pos[raw.sim.model.body_name2id(f.root_body)]
+                for _, f in sorted(raw.fixtures_dict.items())
+            ]
+        )
 
     rollout_env = make_env(task, 32)
     build_env = sim.physics_env(str(libero_bridge.bddl_path(task.suite, task.name)))

@@ -1,13 +1,13 @@
 """Placement rules for crowded scenes, checked on the generators' output (no settling): the cases
 that failed the first full build because the rules had no answer for them."""
+
 from __future__ import annotations
 
 import numpy as np
 
-from vpro_assets.scene import plugins
+from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
-from vpro_assets.benchmark.catalog import find_case
-from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.scene import plugins
 from vpro_assets.scene.base_scene import base_scene
 from vpro_assets.scene.context import GenContext
 
@@ -70,22 +70,37 @@ def test_an_inverted_bowl_next_to_a_plate_moves_clear_and_rests_upside_down(tmp_
     """libero_goal-03 trial 0: at LIBERO's spot the turned bowl's rim lands on the plate's rim, tips
     and rolls 21 cm onto the stove (the v1 build failed there). It must start clear, nearby, and
     stay upside down."""
-    from vpro_assets.scene import bddl_doc
-    from vpro_assets.scene import build
-    from vpro_assets.scene import sim
+    from vpro_assets.scene import bddl_doc, build, sim
     from vpro_assets.scene.init_gen import trial_state
 
     cid = "libero_goal-03/task_precondition_variation/object_pose-v1"
     ctx, v = _variant(cid)
     base, bowl = ctx.base, ctx.task.target
     bddl = tmp_path / build._bddl_name(base.task)
-    bddl.write_text(bddl_doc.render_variant(
-        base.bddl, case_id=cid, generator="test", base_task=ctx.case["task"], summary=v.summary,
-        objects=v.objects, fixtures=v.fixtures, regions=v.regions, init=v.init))
+    bddl.write_text(
+        bddl_doc.render_variant(
+            base.bddl,
+            case_id=cid,
+            generator="test",
+            base_task=ctx.case["task"],
+            summary=v.summary,
+            objects=v.objects,
+            fixtures=v.fixtures,
+            regions=v.regions,
+            init=v.init,
+        )
+    )
     env = sim.physics_env(str(bddl))
     try:
-        trial_state(env, v, base.rows[base.trial_rows[0]], base.slots, 0, base.layouts[0],
-                    fixture_seed=ctx.case["trial_seeds"][0])
+        trial_state(
+            env,
+            v,
+            base.rows[base.trial_rows[0]],
+            base.slots,
+            0,
+            base.layouts[0],
+            fixture_seed=ctx.case["trial_seeds"][0],
+        )
         qpos, _ = sim.free_object_state(env)[bowl]
         body = sim.raw(env).sim.model.body_name2id(sim.raw(env).objects_dict[bowl].root_body)
         up = sim.raw(env).sim.data.body_xmat[body].reshape(3, 3)[:, 2]  # the bowl's own z axis

@@ -1,4 +1,5 @@
 """Fast checks of the scene machinery: BDDL templates, generator registry, pool, state files."""
+
 from __future__ import annotations
 
 import zipfile
@@ -6,12 +7,11 @@ import zipfile
 import numpy as np
 import pytest
 
-from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.core.errors import VProError
+from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.init_states import read_init_states
-from vpro_assets.scene import bddl_doc
-from vpro_assets.scene import state_files
 from vpro_assets.libero.tasks import get_task
+from vpro_assets.scene import bddl_doc, state_files
 
 CASE = "libero_spatial-00/task_relevant_distractors/same_category-v1"
 
@@ -22,8 +22,16 @@ def _base():
 
 
 def _render(base, **kw):
-    args = dict(case_id=CASE, generator="test", base_task="libero_spatial-00", summary="unchanged",
-                objects=base.objects, fixtures=base.fixtures, regions=[], init=base.init)
+    args = {
+        "case_id": CASE,
+        "generator": "test",
+        "base_task": "libero_spatial-00",
+        "summary": "unchanged",
+        "objects": base.objects,
+        "fixtures": base.fixtures,
+        "regions": [],
+        "init": base.init,
+    }
     args.update(kw)
     return bddl_doc.render_variant(base, **args)
 
@@ -38,8 +46,12 @@ def test_unchanged_variant_parses_and_keeps_language_and_goal():
 def test_added_object_and_region_parse():
     base = _base()
     region = bddl_doc.Region("vpro_distractor_region", "main_table", (0.1, 0.1, 0.12, 0.12))
-    text = _render(base, objects=base.objects + [("white_bowl_1", "white_bowl")], regions=[region],
-                   init=base.init + ["(On white_bowl_1 main_table_vpro_distractor_region)"])
+    text = _render(
+        base,
+        objects=base.objects + [("white_bowl_1", "white_bowl")],
+        regions=[region],
+        init=base.init + ["(On white_bowl_1 main_table_vpro_distractor_region)"],
+    )
     parsed = bddl_doc.check_variant(text, base, CASE)
     assert parsed["objects"]["white_bowl"] == ["white_bowl_1"]
     assert parsed["regions"]["main_table_vpro_distractor_region"]["ranges"] == [[0.1, 0.1, 0.12, 0.12]]
@@ -53,8 +65,10 @@ def test_changed_goal_is_refused_naming_the_case():
 
 
 def test_template_with_missing_field_names_case_and_field(tmp_path):
-    (tmp_path / bddl_doc.SCENE_TEMPLATE).write_text("(define (problem ${problem}) ${language} ${regions} ${fixtures} "
-                                                    "${objects} ${obj_of_interest} ${init} ${goal} ${colour})")
+    (tmp_path / bddl_doc.SCENE_TEMPLATE).write_text(
+        "(define (problem ${problem}) ${language} ${regions} ${fixtures} "
+        "${objects} ${obj_of_interest} ${init} ${goal} ${colour})"
+    )
     with pytest.raises(bddl_doc.BDDLError, match=rf"{CASE}.*field 'colour'"):
         _render(_base(), template_dir=tmp_path)
 
@@ -108,10 +122,18 @@ def test_catalog_artifact_check_reports_changed_and_unbuilt_files(tmp_path, monk
     good.parent.mkdir(parents=True)
     good.write_bytes(b"good")
     bad.write_bytes(b"tampered")
-    catalog = {"cases": [{"id": "a", "artifacts": {
-        "scene/a/x.bddl": hashlib.sha256(b"good").hexdigest(),
-        "scene/a/y.npz": hashlib.sha256(b"original").hexdigest(),
-        "scene/a/z.pruned_init": "0" * 64}}]}
+    catalog = {
+        "cases": [
+            {
+                "id": "a",
+                "artifacts": {
+                    "scene/a/x.bddl": hashlib.sha256(b"good").hexdigest(),
+                    "scene/a/y.npz": hashlib.sha256(b"original").hexdigest(),
+                    "scene/a/z.pruned_init": "0" * 64,
+                },
+            }
+        ]
+    }
     diffs, checked, missing = lock.check_built(catalog)
     assert (checked, missing) == (2, 1)
     assert len(diffs) == 1 and "case a: scene/a/y.npz" in diffs[0]
@@ -121,9 +143,9 @@ def test_generated_object_tree_hash_covers_folder_and_shared_textures(tmp_path, 
     """A generated object is recorded as one hash over its folder and the shared textures its MJCF
     references: changing a hull, adding a file or changing a texture outside the folder changes it,
     and `check_built` names the object folder."""
+    from vpro_assets.benchmark import lock
     from vpro_assets.core.hashing import mjcf_tree_files as object_files
     from vpro_assets.core.hashing import mjcf_tree_sha256 as tree_sha256
-    from vpro_assets.benchmark import lock
 
     monkeypatch.setenv("VPRO_OUT", str(tmp_path))
     folder = tmp_path / "objects" / "vpro_thing"
@@ -133,9 +155,14 @@ def test_generated_object_tree_hash_covers_folder_and_shared_textures(tmp_path, 
     (tmp_path / "objects" / "textures" / "wood.png").write_bytes(b"png1")
     (tmp_path / "objects" / "textures" / "unused.png").write_bytes(b"other object's")
     xml = folder / "vpro_thing.xml"
-    xml.write_text('<mujoco><asset><texture file="../textures/wood.png"/><mesh file="meshes/hull_a.obj"/></asset></mujoco>')
+    xml.write_text(
+        '<mujoco><asset><texture file="../textures/wood.png"/><mesh file="meshes/hull_a.obj"/></asset></mujoco>'
+    )
     assert [p.relative_to(tmp_path / "objects").as_posix() for p in object_files(xml)] == [
-        "textures/wood.png", "vpro_thing/meshes/hull_a.obj", "vpro_thing/vpro_thing.xml"]
+        "textures/wood.png",
+        "vpro_thing/meshes/hull_a.obj",
+        "vpro_thing/vpro_thing.xml",
+    ]
     first = tree_sha256(xml)
     catalog = {"cases": [{"id": "a", "artifacts": {"objects/vpro_thing/": first}}]}
     assert lock.check_built(catalog) == ([], 1, 0)
@@ -159,12 +186,17 @@ def test_clean_partial_removes_only_folders_of_dead_writers(tmp_path, monkeypatc
     from vpro_assets.scene import build
 
     monkeypatch.setenv("VPRO_OUT", str(tmp_path))
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
-                          text=True).stdout.strip()
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+    ).stdout.strip()
     alive = str(os.getppid())
-    for name in (f"scene/.tmp-a__b__c-{dead}", f"scene/x/.old-c-{dead}", f"objects/.staging-vpro_x-{dead}",
-                 f"scene/.tmp-a__b__d-{alive}",
-                 f"objects/.tmp-vpro_thing-{alive}"):
+    for name in (
+        f"scene/.tmp-a__b__c-{dead}",
+        f"scene/x/.old-c-{dead}",
+        f"objects/.staging-vpro_x-{dead}",
+        f"scene/.tmp-a__b__d-{alive}",
+        f"objects/.tmp-vpro_thing-{alive}",
+    ):
         (tmp_path / name).mkdir(parents=True)
     build.clean_partial()
     left = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob(".*-*"))

@@ -11,10 +11,11 @@ Two steps, both rules written here and printed in docs/taxonomy.md:
    (ties in suite order), and within a suite the tasks are taken in LIBERO's order starting at a
    rotating offset, so that different settings cover different tasks.
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.core.errors import VProError
@@ -35,14 +36,26 @@ RULES = {
     for r in (
         Rule("any_task", "every task", lambda t: True),
         Rule("has_target", "the goal places a movable target object", lambda t: t.target is not None),
-        Rule("grasps_target", "the target is grasped and put on or into a receptacle (not pushed, not a fixture-only goal)",
-             lambda t: t.requires_grasp),
-        Rule("has_receptacle", "the target goes on or into an object or fixture (not a table region)",
-             lambda t: t.receptacle is not None),
-        Rule("openable_receptacle", "the target goes into a receptacle that opens and closes (drawer, microwave)",
-             lambda t: t.openable_receptacle),
-        Rule("target_or_articulation", "the goal places a target or involves an articulated fixture",
-             lambda t: t.target is not None or bool(t.articulations)),
+        Rule(
+            "grasps_target",
+            "the target is grasped and put on or into a receptacle (not pushed, not a fixture-only goal)",
+            lambda t: t.requires_grasp,
+        ),
+        Rule(
+            "has_receptacle",
+            "the target goes on or into an object or fixture (not a table region)",
+            lambda t: t.receptacle is not None,
+        ),
+        Rule(
+            "openable_receptacle",
+            "the target goes into a receptacle that opens and closes (drawer, microwave)",
+            lambda t: t.openable_receptacle,
+        ),
+        Rule(
+            "target_or_articulation",
+            "the goal places a target or involves an articulated fixture",
+            lambda t: t.target is not None or bool(t.articulations),
+        ),
     )
 }
 
@@ -55,8 +68,11 @@ def rule_for(setting: tx.Setting) -> Rule:
     if cat == "target_receptacle_masking":
         return RULES["has_receptacle"]
     if cat == "interaction_cue_masking":
-        return RULES[{"gripper": "any_task", "gripper_object_contact": "grasps_target",
-                      "placement_contact": "has_receptacle"}[str(p["region"])]]
+        return RULES[
+            {"gripper": "any_task", "gripper_object_contact": "grasps_target", "placement_contact": "has_receptacle"}[
+                str(p["region"])
+            ]
+        ]
     if cat == "temporary_observation_corruption":
         return RULES["any_task" if p["trigger"] == "frequency" or p["phase"] == "approach" else "grasps_target"]
     if cat in ("view_unavailability", "camera_staleness", "prediction_reality_divergence"):

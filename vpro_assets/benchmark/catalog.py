@@ -4,34 +4,56 @@
 its canonical serialisation (sorted keys, fixed layout), so a rebuild is byte-identical and
 `verify_catalog()` can name the first case and field that differ.
 """
+
 from __future__ import annotations
 
 import json
 from collections import Counter
+from collections.abc import Iterator
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 from vpro_assets.benchmark import applicability
-from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.benchmark import lock as scene_lock_mod
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.core.atomic import write_text_atomic
+from vpro_assets.core.errors import CatalogError, UnknownIdError
 from vpro_assets.core.hashing import canonical_json
-from vpro_assets.core.errors import CatalogError
-from vpro_assets.core.errors import UnknownIdError
-from vpro_assets.core.seeding import SEED_SCHEME
-from vpro_assets.core.seeding import TRIALS_PER_CASE
-from vpro_assets.core.seeding import trial_seeds
-from vpro_assets.libero.tasks import TaskRecord
-from vpro_assets.libero.tasks import load_tasks
-from vpro_assets.benchmark import lock as scene_lock_mod
+from vpro_assets.core.seeding import SEED_SCHEME, TRIALS_PER_CASE, trial_seeds
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.tasks import TaskRecord, load_tasks
 
 SCHEMA_VERSION = 1
 # Libraries whose versions decide what cases and artifacts contain.
-RECORDED_LIBRARIES = ("hf-libero", "robosuite", "mujoco", "bddl", "numpy", "trimesh", "manifold3d", "coacd",
-                      "usd-core", "yourdfpy")
-CASE_FIELDS = ("id", "suite", "task", "task_name", "dimension", "category", "setting", "level", "indicator",
-               "params", "language", "trial_seeds", "init_states", "artifacts")
+RECORDED_LIBRARIES = (
+    "hf-libero",
+    "robosuite",
+    "mujoco",
+    "bddl",
+    "numpy",
+    "trimesh",
+    "manifold3d",
+    "coacd",
+    "usd-core",
+    "yourdfpy",
+)
+CASE_FIELDS = (
+    "id",
+    "suite",
+    "task",
+    "task_name",
+    "dimension",
+    "category",
+    "setting",
+    "level",
+    "indicator",
+    "params",
+    "language",
+    "trial_seeds",
+    "init_states",
+    "artifacts",
+)
 
 
 def case_id(task: TaskRecord, setting: tx.Setting) -> str:
@@ -113,9 +135,16 @@ def build_catalog(tasks: tuple[TaskRecord, ...] | None = None) -> dict[str, Any]
         "cases_per_category": dict(per_category),
     }
     normal = [
-        {"id": normal_id(t), "suite": t.suite, "task": t.key, "task_name": t.name, "language": t.language,
-         "instruction": t.instruction,
-         "trial_seeds": trial_seeds(normal_id(t)), "init_states": _libero_init_ref(t)}
+        {
+            "id": normal_id(t),
+            "suite": t.suite,
+            "task": t.key,
+            "task_name": t.name,
+            "language": t.language,
+            "instruction": t.instruction,
+            "trial_seeds": trial_seeds(normal_id(t)),
+            "init_states": _libero_init_ref(t),
+        }
         for t in tasks
     ]
     return {
@@ -151,7 +180,9 @@ def load_catalog(path: Path) -> dict:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         truncated = "" if text.rstrip().endswith("}") else " (the file looks truncated: it does not end with '}')"
-        raise CatalogError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}{truncated}") from None
+        raise CatalogError(
+            f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}{truncated}"
+        ) from None
     if not isinstance(data, dict) or not isinstance(data.get("header"), dict):
         raise CatalogError(f"{path}: not a catalog (expected a JSON object with a 'header')")
     version = data["header"].get("schema_version")
@@ -218,7 +249,9 @@ def verify_catalog(path: Path) -> tuple[dict, list[str]]:
     rebuilt = build_catalog()
     diffs = differences(committed, rebuilt)
     if not diffs and Path(path).read_text(encoding="utf-8") != dumps(rebuilt):
-        diffs = [f"{path}: same data but not in canonical form (sorted keys, indent 1); rewrite with `vpro catalog build`"]
+        diffs = [
+            f"{path}: same data but not in canonical form (sorted keys, indent 1); rewrite with `vpro catalog build`"
+        ]
     return committed, diffs
 
 

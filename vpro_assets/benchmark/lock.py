@@ -11,6 +11,7 @@ targets, recoloured distractors) are recorded as one tree hash per object folder
 texture, without listing the ~50 hull files of each deformed object in the catalog. A full check is
 `vpro build -j 2 && vpro catalog verify --artifacts` (see README).
 """
+
 from __future__ import annotations
 
 import json
@@ -94,5 +95,7 @@ def check_built(catalog: dict) -> tuple[list[str], int, int]:
                 trees[rel] = _object_tree(path.stem)
             actual = trees[rel] if folder else sha256_file(path)
             if actual != digest:
-                diffs.append(f"case {case['id']}: {rel} has sha256 {actual[:16]}..., the catalog records {digest[:16]}...")
+                diffs.append(
+                    f"case {case['id']}: {rel} has sha256 {actual[:16]}..., the catalog records {digest[:16]}..."
+                )
     return diffs, checked, missing

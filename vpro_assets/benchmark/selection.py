@@ -1,9 +1,10 @@
 """`--select FILTER`: pick cases from the catalog by case id, setting, category, dimension,
 suite or task (repeatable; several filters are a union). `normal` selects the Normal baselines,
 narrowed by any suite or task filters given with it."""
+
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 from vpro_assets.core.errors import UnknownIdError
 

@@ -5,15 +5,16 @@ Each setting is a frozen, JSON-serialisable record with a stable, versioned id
 level, severities) are chosen here, once, and documented in docs/taxonomy.md. Changing what a
 setting does means bumping its version, which changes its id and every case id built on it.
 """
+
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping, Union
 
 from vpro_assets.core.errors import UnknownIdError
 
-JSONScalar = Union[str, int, float, bool, None]
+JSONScalar = str | int | float | bool | None
 TAXONOMY_VERSION = "vpro-taxonomy-v1"
 CONTROL_HZ = 20  # LIBERO's OSC controller rate: step counts below are control steps
 
@@ -78,41 +79,123 @@ def _setting(category_id: str, name: str, **params: JSONScalar) -> Setting:
 
 
 DIMENSIONS = (
-    Dimension("visual_evidence_degradation", "Visual Evidence Degradation",
-              "Task-relevant evidence is occluded, corrupted or missing, from single entities to whole views."),
-    Dimension("camera_staleness", "Camera Staleness",
-              "One camera delivers outdated frames while the other stays current."),
-    Dimension("visual_source_consistency", "Visual Source Consistency",
-              "Visual sources disagree: the two cameras, or predicted and realised futures."),
-    Dimension("task_relevant_scene_variation", "Task-Relevant Scene Variation",
-              "The scene itself changes; observations stay complete, current and consistent."),
+    Dimension(
+        "visual_evidence_degradation",
+        "Visual Evidence Degradation",
+        "Task-relevant evidence is occluded, corrupted or missing, from single entities to whole views.",
+    ),
+    Dimension(
+        "camera_staleness", "Camera Staleness", "One camera delivers outdated frames while the other stays current."
+    ),
+    Dimension(
+        "visual_source_consistency",
+        "Visual Source Consistency",
+        "Visual sources disagree: the two cameras, or predicted and realised futures.",
+    ),
+    Dimension(
+        "task_relevant_scene_variation",
+        "Task-Relevant Scene Variation",
+        "The scene itself changes; observations stay complete, current and consistent.",
+    ),
 )
 
 CATEGORIES = (
-    Category("target_object_masking", "visual_evidence_degradation", "Target-Object Masking", DIAGNOSTIC, OBSERVATION,
-             "A share of the target object's visible pixels is covered by a flat occluder on a temporal schedule."),
-    Category("target_receptacle_masking", "visual_evidence_degradation", "Target-Receptacle Masking", DIAGNOSTIC, OBSERVATION,
-             "As target-object masking, applied to the receptacle the target goes on or into."),
-    Category("interaction_cue_masking", "visual_evidence_degradation", "Interaction-Cue Masking", DIAGNOSTIC, OBSERVATION,
-             "Local interaction cues are removed: the gripper, the gripper-object contact region, the placement contact region."),
-    Category("temporary_observation_corruption", "visual_evidence_degradation", "Temporary Observation Corruption", ROBUSTNESS, OBSERVATION,
-             "Transient full-frame blackout or noise, triggered at a frequency or during one manipulation phase."),
-    Category("view_unavailability", "visual_evidence_degradation", "View Unavailability", ROBUSTNESS, OBSERVATION,
-             "One camera is removed: single-view input, a constant image, or a duplicate of the other view."),
-    Category("camera_staleness", "camera_staleness", "Camera Staleness", ROBUSTNESS, OBSERVATION,
-             "One view is delayed by a fixed number of steps, frozen, or replays its own history."),
-    Category("cross_view_contradiction", "visual_source_consistency", "Cross-View Contradiction", DIAGNOSTIC, OBSERVATION,
-             "One view is edited to contradict the other about quantity, existence, position or state; both time-aligned."),
-    Category("prediction_reality_divergence", "visual_source_consistency", "Prediction-Reality Divergence", ROBUSTNESS, OBSERVATION,
-             "Ground truth only at the first step, then the model's own predicted frames are its observations (frame-predicting models only)."),
-    Category("task_relevant_distractors", "task_relevant_scene_variation", "Task-Relevant Distractors", ROBUSTNESS, SCENE,
-             "An added object shares the target's category, colour, shape or affordance, takes its familiar position, or blocks its path."),
-    Category("task_precondition_variation", "task_relevant_scene_variation", "Task-Precondition Variation", ROBUSTNESS, SCENE,
-             "The receptacle's openness or the target's pose starts in the other state; the instruction is unchanged."),
-    Category("visual_state_ambiguity", "task_relevant_scene_variation", "Visual State Ambiguity", DIAGNOSTIC, SCENE,
-             "Physical state unchanged; the other state is added as visual-only geometry, so both are seen at once."),
-    Category("target_geometry_variation", "task_relevant_scene_variation", "Target Geometry Variation", ROBUSTNESS, SCENE,
-             "The target's mesh is tapered, multi-peaked, twisted or made asymmetric at three severities; category preserved."),
+    Category(
+        "target_object_masking",
+        "visual_evidence_degradation",
+        "Target-Object Masking",
+        DIAGNOSTIC,
+        OBSERVATION,
+        "A share of the target object's visible pixels is covered by a flat occluder on a temporal schedule.",
+    ),
+    Category(
+        "target_receptacle_masking",
+        "visual_evidence_degradation",
+        "Target-Receptacle Masking",
+        DIAGNOSTIC,
+        OBSERVATION,
+        "As target-object masking, applied to the receptacle the target goes on or into.",
+    ),
+    Category(
+        "interaction_cue_masking",
+        "visual_evidence_degradation",
+        "Interaction-Cue Masking",
+        DIAGNOSTIC,
+        OBSERVATION,
+        "Local interaction cues are removed: the gripper, the gripper-object contact region, the placement contact region.",
+    ),
+    Category(
+        "temporary_observation_corruption",
+        "visual_evidence_degradation",
+        "Temporary Observation Corruption",
+        ROBUSTNESS,
+        OBSERVATION,
+        "Transient full-frame blackout or noise, triggered at a frequency or during one manipulation phase.",
+    ),
+    Category(
+        "view_unavailability",
+        "visual_evidence_degradation",
+        "View Unavailability",
+        ROBUSTNESS,
+        OBSERVATION,
+        "One camera is removed: single-view input, a constant image, or a duplicate of the other view.",
+    ),
+    Category(
+        "camera_staleness",
+        "camera_staleness",
+        "Camera Staleness",
+        ROBUSTNESS,
+        OBSERVATION,
+        "One view is delayed by a fixed number of steps, frozen, or replays its own history.",
+    ),
+    Category(
+        "cross_view_contradiction",
+        "visual_source_consistency",
+        "Cross-View Contradiction",
+        DIAGNOSTIC,
+        OBSERVATION,
+        "One view is edited to contradict the other about quantity, existence, position or state; both time-aligned.",
+    ),
+    Category(
+        "prediction_reality_divergence",
+        "visual_source_consistency",
+        "Prediction-Reality Divergence",
+        ROBUSTNESS,
+        OBSERVATION,
+        "Ground truth only at the first step, then the model's own predicted frames are its observations (frame-predicting models only).",
+    ),
+    Category(
+        "task_relevant_distractors",
+        "task_relevant_scene_variation",
+        "Task-Relevant Distractors",
+        ROBUSTNESS,
+        SCENE,
+        "An added object shares the target's category, colour, shape or affordance, takes its familiar position, or blocks its path.",
+    ),
+    Category(
+        "task_precondition_variation",
+        "task_relevant_scene_variation",
+        "Task-Precondition Variation",
+        ROBUSTNESS,
+        SCENE,
+        "The receptacle's openness or the target's pose starts in the other state; the instruction is unchanged.",
+    ),
+    Category(
+        "visual_state_ambiguity",
+        "task_relevant_scene_variation",
+        "Visual State Ambiguity",
+        DIAGNOSTIC,
+        SCENE,
+        "Physical state unchanged; the other state is added as visual-only geometry, so both are seen at once.",
+    ),
+    Category(
+        "target_geometry_variation",
+        "task_relevant_scene_variation",
+        "Target Geometry Variation",
+        ROBUSTNESS,
+        SCENE,
+        "The target's mesh is tapered, multi-peaked, twisted or made asymmetric at three severities; category preserved.",
+    ),
 )
 
 # ---- parameter choices the paper leaves open (documented in docs/taxonomy.md) -------------
@@ -133,8 +216,12 @@ FREEZE_STEP = 30  # the view keeps showing the frame of this step from then on
 REPLAY_START, REPLAY_WINDOW = 40, 20  # from step 40 the view loops over its frames 20..39
 CONTRADICTION_OFFSET_M = 0.10  # the target drawn displaced by 10 cm in the manipulated view
 # Cross-view contradiction: the scene edit that makes each attribute disagree between the views.
-CONTRADICTION_EDITS = {"quantity": "duplicate_target", "existence": "hide_target", "position": "displace_target",
-                       "state": "other_state"}
+CONTRADICTION_EDITS = {
+    "quantity": "duplicate_target",
+    "existence": "hide_target",
+    "position": "displace_target",
+    "state": "other_state",
+}
 GEOMETRY_SEVERITY = {  # deformation magnitude per severity level 1, 2, 3
     "taper": ("top_scale", (0.85, 0.70, 0.55)),  # cross-section scale at the top vs bottom
     "multipeak": ("peak_amplitude", (0.06, 0.12, 0.18)),  # bump height, fraction of radius
@@ -156,58 +243,164 @@ def _build_settings() -> tuple[Setting, ...]:
     for entity, cat in (("target", "target_object_masking"), ("receptacle", "target_receptacle_masking")):
         for ratio in MASK_RATIOS:
             for schedule in MASK_SCHEDULES:
-                out.append(_setting(cat, f"ratio{ratio}-{schedule}", entity=entity, ratio=ratio / 100,
-                                    schedule=schedule, occluder_gray=OCCLUDER_GRAY, views="both"))
+                out.append(
+                    _setting(
+                        cat,
+                        f"ratio{ratio}-{schedule}",
+                        entity=entity,
+                        ratio=ratio / 100,
+                        schedule=schedule,
+                        occluder_gray=OCCLUDER_GRAY,
+                        views="both",
+                    )
+                )
     for region in ("gripper", "gripper_object_contact", "placement_contact"):
-        out.append(_setting("interaction_cue_masking", region, region=region, ratio=1.0, schedule="always",
-                            dilation_px=0 if region == "gripper" else CONTACT_DILATION_PX,
-                            occluder_gray=OCCLUDER_GRAY, views="both"))
+        out.append(
+            _setting(
+                "interaction_cue_masking",
+                region,
+                region=region,
+                ratio=1.0,
+                schedule="always",
+                dilation_px=0 if region == "gripper" else CONTACT_DILATION_PX,
+                occluder_gray=OCCLUDER_GRAY,
+                views="both",
+            )
+        )
     for mode in ("blackout", "noise"):
         noise = NOISE_STD if mode == "noise" else None
         for level, prob in CORRUPTION_FREQUENCIES.items():
-            out.append(_setting("temporary_observation_corruption", f"{mode}-frequency_{level}", mode=mode,
-                                trigger="frequency", onset_prob=prob, burst_steps=CORRUPTION_BURST_STEPS,
-                                noise_std=noise, views="both"))
+            out.append(
+                _setting(
+                    "temporary_observation_corruption",
+                    f"{mode}-frequency_{level}",
+                    mode=mode,
+                    trigger="frequency",
+                    onset_prob=prob,
+                    burst_steps=CORRUPTION_BURST_STEPS,
+                    noise_std=noise,
+                    views="both",
+                )
+            )
         for phase in PHASES:
-            out.append(_setting("temporary_observation_corruption", f"{mode}-phase_{phase}", mode=mode,
-                                trigger="phase", phase=phase, noise_std=noise, views="both"))
+            out.append(
+                _setting(
+                    "temporary_observation_corruption",
+                    f"{mode}-phase_{phase}",
+                    mode=mode,
+                    trigger="phase",
+                    phase=phase,
+                    noise_std=noise,
+                    views="both",
+                )
+            )
     for view in VIEWS:
         for replacement in ("single_view", "constant", "duplicate"):
-            out.append(_setting("view_unavailability", f"{view}-{replacement}", view=view, camera=VIEWS[view],
-                                replacement=replacement, constant_value=0 if replacement == "constant" else None))
+            out.append(
+                _setting(
+                    "view_unavailability",
+                    f"{view}-{replacement}",
+                    view=view,
+                    camera=VIEWS[view],
+                    replacement=replacement,
+                    constant_value=0 if replacement == "constant" else None,
+                )
+            )
     for view in VIEWS:
         for delay_level, delay in enumerate(STALENESS_DELAYS, start=1):
-            out.append(_setting("camera_staleness", f"{view}-delay{delay_level}", view=view, camera=VIEWS[view],
-                                mode="delay", delay_steps=delay))
-        out.append(_setting("camera_staleness", f"{view}-freeze", view=view, camera=VIEWS[view], mode="freeze",
-                            freeze_step=FREEZE_STEP))
-        out.append(_setting("camera_staleness", f"{view}-replay", view=view, camera=VIEWS[view], mode="replay",
-                            replay_start=REPLAY_START, replay_window=REPLAY_WINDOW))
+            out.append(
+                _setting(
+                    "camera_staleness",
+                    f"{view}-delay{delay_level}",
+                    view=view,
+                    camera=VIEWS[view],
+                    mode="delay",
+                    delay_steps=delay,
+                )
+            )
+        out.append(
+            _setting(
+                "camera_staleness",
+                f"{view}-freeze",
+                view=view,
+                camera=VIEWS[view],
+                mode="freeze",
+                freeze_step=FREEZE_STEP,
+            )
+        )
+        out.append(
+            _setting(
+                "camera_staleness",
+                f"{view}-replay",
+                view=view,
+                camera=VIEWS[view],
+                mode="replay",
+                replay_start=REPLAY_START,
+                replay_window=REPLAY_WINDOW,
+            )
+        )
     for attribute, edit in CONTRADICTION_EDITS.items():
         for view in VIEWS:
-            out.append(_setting("cross_view_contradiction", f"{attribute}-{view}", attribute=attribute, edit=edit,
-                                view=view, camera=VIEWS[view],
-                                offset_m=CONTRADICTION_OFFSET_M if attribute == "position" else None))
-    out.append(_setting("prediction_reality_divergence", "recursive_self_prediction", ground_truth_steps=1,
-                        requires_predicted_frames=True))
+            out.append(
+                _setting(
+                    "cross_view_contradiction",
+                    f"{attribute}-{view}",
+                    attribute=attribute,
+                    edit=edit,
+                    view=view,
+                    camera=VIEWS[view],
+                    offset_m=CONTRADICTION_OFFSET_M if attribute == "position" else None,
+                )
+            )
+    out.append(
+        _setting(
+            "prediction_reality_divergence",
+            "recursive_self_prediction",
+            ground_truth_steps=1,
+            requires_predicted_frames=True,
+        )
+    )
     for kind, rule in DISTRACTOR_RULES.items():
         out.append(_setting("task_relevant_distractors", kind, distractor=kind, rule=rule))
     for cat, physical in (("task_precondition_variation", True), ("visual_state_ambiguity", False)):
-        out.append(_setting(cat, "receptacle_openness", attribute="receptacle_openness", state="other",
-                            physical=physical, visual_only_geometry=not physical))
-        out.append(_setting(cat, "object_pose", attribute="object_pose", state="inverted",
-                            physical=physical, visual_only_geometry=not physical))
+        out.append(
+            _setting(
+                cat,
+                "receptacle_openness",
+                attribute="receptacle_openness",
+                state="other",
+                physical=physical,
+                visual_only_geometry=not physical,
+            )
+        )
+        out.append(
+            _setting(
+                cat,
+                "object_pose",
+                attribute="object_pose",
+                state="inverted",
+                physical=physical,
+                visual_only_geometry=not physical,
+            )
+        )
     for deformation, (param, amounts) in GEOMETRY_SEVERITY.items():
         for severity, amount in enumerate(amounts, start=1):
-            out.append(_setting("target_geometry_variation", f"{deformation}-s{severity}", deformation=deformation,
-                                severity=severity, **{param: amount}))
+            out.append(
+                _setting(
+                    "target_geometry_variation",
+                    f"{deformation}-s{severity}",
+                    deformation=deformation,
+                    severity=severity,
+                    **{param: amount},
+                )
+            )
     return tuple(out)
 
 
 SETTINGS: tuple[Setting, ...] = _build_settings()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _index() -> dict[str, Mapping]:
     return {
         "dimension": {d.id: d for d in DIMENSIONS},

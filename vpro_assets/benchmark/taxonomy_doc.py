@@ -1,15 +1,16 @@
 """docs/taxonomy.md, generated from the code: every setting with its parameters, its
 applicability rule and its case count per suite. Regenerate with `vpro taxonomy --doc`."""
+
 from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
 
 from vpro_assets.benchmark import applicability
-from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.benchmark import taxonomy as tx
-from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.benchmark.catalog import build_catalog
+from vpro_assets.core.atomic import write_text_atomic
+from vpro_assets.libero import bridge as libero_bridge
 
 SHORT = {"libero_spatial": "spatial", "libero_object": "object", "libero_goal": "goal", "libero_10": "10"}
 
@@ -43,27 +44,48 @@ def render_taxonomy_doc(catalog: dict | None = None) -> str:
         "",
     ]
     lines += [f"- `{r.name}`: {r.text}" for r in applicability.RULES.values()]
-    lines += ["", "## Categories", "", "| dimension | category | indicator | level | settings | cases |", "|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "## Categories",
+        "",
+        "| dimension | category | indicator | level | settings | cases |",
+        "|---|---|---|---|---|---|",
+    ]
     per_cat = Counter(c["category"] for c in catalog["cases"])
     for cat in tx.CATEGORIES:
-        lines.append(f"| {tx.dimension(cat.dimension).title} | {cat.title} | {cat.indicator} | {cat.level} | "
-                     f"{len(tx.settings_of(cat.id))} | {per_cat[cat.id]} |")
-    lines += ["", "Indicators: *robustness* means higher SR is more resilient; *diagnostic* means high SR may come "
-              "from learned priors, another view or non-visual cues, so read it with its controls (as in the paper)."]
+        lines.append(
+            f"| {tx.dimension(cat.dimension).title} | {cat.title} | {cat.indicator} | {cat.level} | "
+            f"{len(tx.settings_of(cat.id))} | {per_cat[cat.id]} |"
+        )
+    lines += [
+        "",
+        "Indicators: *robustness* means higher SR is more resilient; *diagnostic* means high SR may come "
+        "from learned priors, another view or non-visual cues, so read it with its controls (as in the paper).",
+    ]
     for dim in tx.DIMENSIONS:
         lines += ["", f"## {dim.title}", "", dim.summary]
         for cat in (c for c in tx.CATEGORIES if c.dimension == dim.id):
-            lines += ["", f"### {cat.title} (`{cat.id}`, {cat.indicator})", "", cat.summary, "",
-                      f"| setting | parameters | rule | {head} | total |", "|---|---|---|" + "---|" * (len(suites) + 1)]
+            lines += [
+                "",
+                f"### {cat.title} (`{cat.id}`, {cat.indicator})",
+                "",
+                cat.summary,
+                "",
+                f"| setting | parameters | rule | {head} | total |",
+                "|---|---|---|" + "---|" * (len(suites) + 1),
+            ]
             for s in tx.settings_of(cat.id):
                 params = "<br>".join(f"{k}={_fmt(v)}" for k, v in s.params if v is not None)
                 per = [counts[(s.id, suite)] for suite in suites]
-                lines.append(f"| `{s.id}` | {params} | `{applicability.rule_for(s).name}` | "
-                             + " | ".join(map(str, per)) + f" | {sum(per)} |")
+                lines.append(
+                    f"| `{s.id}` | {params} | `{applicability.rule_for(s).name}` | "
+                    + " | ".join(map(str, per))
+                    + f" | {sum(per)} |"
+                )
     lines += ["", "## Parameter choices the paper leaves open", ""]
     lines += [
         f"- Masking occluder: flat grey {tx.OCCLUDER_GRAY}; contact regions grown by {tx.CONTACT_DILATION_PX} px at 256 px.",
-        f"- Masking schedules: " + "; ".join(f"`{k}`: {v}" for k, v in tx.MASK_SCHEDULES.items()) + ".",
+        "- Masking schedules: " + "; ".join(f"`{k}`: {v}" for k, v in tx.MASK_SCHEDULES.items()) + ".",
         f"- Corruption frequency: a burst of {tx.CORRUPTION_BURST_STEPS} steps starts at each step with probability "
         + ", ".join(f"{k} {v}" for k, v in tx.CORRUPTION_FREQUENCIES.items())
         + "; draws from the case's seeded stream. Noise: additive Gaussian, std "
@@ -76,9 +98,15 @@ def render_taxonomy_doc(catalog: dict | None = None) -> str:
         "- Geometry severities: " + "; ".join(f"{k} {p} {v}" for k, (p, v) in tx.GEOMETRY_SEVERITY.items()) + ".",
         "- Distractor rules: " + "; ".join(f"`{k}`: {v}" for k, v in tx.DISTRACTOR_RULES.items()) + ".",
         "",
-        "## Tasks", "", "| task | target | receptacle | language |", "|---|---|---|---|",
+        "## Tasks",
+        "",
+        "| task | target | receptacle | language |",
+        "|---|---|---|---|",
     ]
-    lines += [f"| `{t['key']}` | {t['target'] or '-'} | {t['receptacle'] or '-'} | {t['language']} |" for t in catalog["tasks"]]
+    lines += [
+        f"| `{t['key']}` | {t['target'] or '-'} | {t['receptacle'] or '-'} | {t['language']} |"
+        for t in catalog["tasks"]
+    ]
     return "\n".join(lines) + "\n"
 
 

@@ -2,10 +2,11 @@
 
 Messages name the offending id, value or file, so the CLI prints them without a traceback.
 """
+
 from __future__ import annotations
 
 import difflib
-from typing import Iterable
+from collections.abc import Iterable
 
 
 class VProError(Exception):
@@ -20,7 +21,9 @@ class UnknownIdError(VProError, KeyError):
         close = difflib.get_close_matches(value, known, n=5, cutoff=0.5)
         # Also offer ids that contain the value, which catches short prefixes like "spatial-03".
         close += [k for k in known if value and value in k and k not in close][: max(0, 5 - len(close))]
-        hint = f"; did you mean: {', '.join(close)}?" if close else f"; {len(known)} known {kind} ids (see `vpro --help`)"
+        hint = (
+            f"; did you mean: {', '.join(close)}?" if close else f"; {len(known)} known {kind} ids (see `vpro --help`)"
+        )
         super().__init__(f"unknown {kind} id {value!r}{hint}")
         self.kind, self.value, self.suggestions = kind, value, close
 

@@ -3,6 +3,7 @@ built scene files, packs, episode rows).
 
 `packs/fork_runtime.py` keeps its own sha256 helper because it runs inside forks without the
 toolkit."""
+
 from __future__ import annotations
 
 import hashlib

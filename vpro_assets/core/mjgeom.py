@@ -6,6 +6,7 @@ Every geom carries its own bounding box in its frame (`model.geom_aabb`: centre,
 measures layouts with these corners, the distractor pool measures objects, the visual-only copies
 find their extent, and the scripted policy finds what it grasps.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
@@ -24,8 +25,11 @@ def colliding(model, geoms: Iterable[int]) -> list[int]:
 
 def geom_corners(model, data, geoms: Iterable[int]) -> np.ndarray:
     """World positions of the 8 box corners of each geom, stacked: shape (8 * len(geoms), 3)."""
-    pts = [(_CORNERS * model.geom_aabb[g][3:] + model.geom_aabb[g][:3]) @ data.geom_xmat[g].reshape(3, 3).T
-           + data.geom_xpos[g] for g in geoms]
+    pts = [
+        (_CORNERS * model.geom_aabb[g][3:] + model.geom_aabb[g][:3]) @ data.geom_xmat[g].reshape(3, 3).T
+        + data.geom_xpos[g]
+        for g in geoms
+    ]
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 

@@ -1,4 +1,5 @@
 """Where the project's files live: the repository root, out/ and what is built there, the committed catalog."""
+
 from __future__ import annotations
 
 import os

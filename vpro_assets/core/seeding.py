@@ -3,6 +3,7 @@
 Every random draw in the toolkit comes from a `numpy.random.Generator` made here from a case id,
 a trial and a component name, so changing one component never shifts another's draws.
 """
+
 from __future__ import annotations
 
 import hashlib

@@ -6,6 +6,7 @@ is always given, and with `seed`, input and parameters fixed its output is repea
 the byte-identical regeneration test). Hulls are returned sorted by their centroid, so the order
 never depends on the search's internals, and each is re-hulled with trimesh (consistent winding).
 """
+
 from __future__ import annotations
 
 import logging
@@ -45,8 +46,14 @@ class CoacdParams:
 
 
 # Lighter search for tests and previews: same algorithm, fewer samples and iterations.
-FAST = {"threshold": 0.15, "max_convex_hull": 12, "resolution": 600, "mcts_iterations": 30, "mcts_nodes": 10,
-        "mcts_max_depth": 2}
+FAST = {
+    "threshold": 0.15,
+    "max_convex_hull": 12,
+    "resolution": 600,
+    "mcts_iterations": 30,
+    "mcts_nodes": 10,
+    "mcts_max_depth": 2,
+}
 MIN_HULLS, MAX_HULLS = 1, 64
 
 
@@ -79,8 +86,9 @@ SUPPORT_TOLERANCE = 0.0005  # metres: a hull within this of the solid's bottom c
 MIN_SUPPORT_HULLS = 3
 
 
-def split_support_hulls(hulls: list[trimesh.Trimesh], up: np.ndarray, across: tuple[np.ndarray, np.ndarray],
-                        what: str) -> list[trimesh.Trimesh]:
+def split_support_hulls(
+    hulls: list[trimesh.Trimesh], up: np.ndarray, across: tuple[np.ndarray, np.ndarray], what: str
+) -> list[trimesh.Trimesh]:
     """Give a resting object several supporting hulls.
 
     MuJoCo makes one contact per convex pair (LIBERO does not enable multi-contact), so an object
@@ -99,9 +107,14 @@ def split_support_hulls(hulls: list[trimesh.Trimesh], up: np.ndarray, across: tu
     out = [h for i, h in enumerate(hulls) if i not in support]
     for i in support:
         hull = hulls[i]
-        pieces = [manifold3d.Manifold(manifold3d.Mesh(
-            vert_properties=np.ascontiguousarray(hull.vertices, np.float32),
-            tri_verts=np.ascontiguousarray(hull.faces, np.uint32)))]
+        pieces = [
+            manifold3d.Manifold(
+                manifold3d.Mesh(
+                    vert_properties=np.ascontiguousarray(hull.vertices, np.float32),
+                    tri_verts=np.ascontiguousarray(hull.faces, np.uint32),
+                )
+            )
+        ]
         centre = np.asarray(hull.vertices).mean(axis=0)
         for normal in across:
             offset = float(centre @ normal)

@@ -15,6 +15,7 @@ the vertical axis through the solid's centroid:
 - asymmetric: r scaled by 1 + b max(0, cos(phi - phi0))^2 * 4 t (1 - t), b = bulge, phi0 = 0
               (one side bulges, most at mid-height; bottom and top outlines unchanged).
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
@@ -130,8 +131,9 @@ def displacement_measure(points: np.ndarray, warp: Callable[[np.ndarray], np.nda
     return float(np.linalg.norm(moved - points, axis=1).mean() / size)
 
 
-def transform_normals(points: np.ndarray, normals: np.ndarray, warp: Callable[[np.ndarray], np.ndarray],
-                      step: float = 1e-5) -> np.ndarray:
+def transform_normals(
+    points: np.ndarray, normals: np.ndarray, warp: Callable[[np.ndarray], np.ndarray], step: float = 1e-5
+) -> np.ndarray:
     """Normals carried through `warp`: n' = J^-T n (J by central differences at each point), unit length."""
     points = np.asarray(points, dtype=np.float64)
     jacobian = np.empty((len(points), 3, 3))

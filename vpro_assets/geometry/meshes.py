@@ -7,6 +7,7 @@ its texture coordinates and material. Writers here emit OBJ text at a fixed prec
 same mesh always gives the same bytes and the same sha256 (never trimesh's cache hash, which
 depends on what is installed).
 """
+
 from __future__ import annotations
 
 import io
@@ -147,8 +148,9 @@ def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
             raise MeshError(f"{category}: geom uses mesh {geom.get('mesh')!r}, not defined in {xml_path}")
         if mesh_el.get("refpos") or mesh_el.get("refquat"):
             raise MeshError(f"{category}: mesh {mesh_el.get('name')!r} uses refpos/refquat, not supported")
-        corners, uv, normals = _load_mesh_file(xml_path.parent / mesh_el.get("file", ""),
-                                               _floats(mesh_el.get("scale"), (1, 1, 1)))
+        corners, uv, normals = _load_mesh_file(
+            xml_path.parent / mesh_el.get("file", ""), _floats(mesh_el.get("scale"), (1, 1, 1))
+        )
         rotation = quat_matrix(_floats(geom.get("quat"), (1, 0, 0, 0)))
         corners = corners @ rotation.T + _floats(geom.get("pos"), (0, 0, 0))
         normals = None if normals is None else normals @ rotation.T
@@ -162,9 +164,18 @@ def load_libero_object(category: str, xml_path: Path) -> LiberoObjectSource:
                 texture_attrs = {k: v for k, v in tex_el.attrib.items() if k not in ("name", "file")}
         elif rgba := geom.get("rgba"):
             material = {"rgba": rgba}
-        parts.append(MeshPart(mesh_el.get("name", ""), corners, uv if texture_file is not None else None,
-                              material, texture_file, texture_attrs, xml_path.parent / mesh_el.get("file", ""),
-                              normals))
+        parts.append(
+            MeshPart(
+                mesh_el.get("name", ""),
+                corners,
+                uv if texture_file is not None else None,
+                material,
+                texture_file,
+                texture_attrs,
+                xml_path.parent / mesh_el.get("file", ""),
+                normals,
+            )
+        )
     if not parts:
         raise MeshError(f"{category}: {xml_path} has no visual mesh geom (group 1) in its object body")
     sites = [dict(s.attrib) for s in outer.findall("./site")]
@@ -190,9 +201,15 @@ def _format_rows(prefix: str, rows: np.ndarray, decimals: int) -> str:
     return buffer.getvalue()
 
 
-def obj_bytes(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None,
-              uv_faces: np.ndarray | None = None, header: str = "", normals: np.ndarray | None = None,
-              normal_faces: np.ndarray | None = None) -> bytes:
+def obj_bytes(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    uv: np.ndarray | None = None,
+    uv_faces: np.ndarray | None = None,
+    header: str = "",
+    normals: np.ndarray | None = None,
+    normal_faces: np.ndarray | None = None,
+) -> bytes:
     """OBJ text: `v` at 6 decimals, optional `vt` and `vn`, 1-based faces (`f v/vt/vn`)."""
     columns = [np.asarray(faces, dtype=np.int64) + 1]
     text = [f"# {header}\n" if header else "", _format_rows("v", np.asarray(vertices), POSITION_DECIMALS)]

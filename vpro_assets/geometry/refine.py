@@ -7,6 +7,7 @@ texture seams split consistently and no T-junction opens a crack). A triangle wi
 three split edges becomes two, three or four triangles; texture coordinates are interpolated per
 triangle, so seams keep their own coordinates on each side.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -14,6 +14,7 @@ a moka pot's shell). `repair_part` tries, in this order, and reports which step 
 
 Parts are joined with `Manifold.batch_boolean(..., OpType.Add)`.
 """
+
 from __future__ import annotations
 
 import logging
@@ -92,11 +93,18 @@ def repair_part(name: str, corners: np.ndarray, pitch: float | None = None):
     trimesh.repair.fill_holes(mesh)
     manifold = manifold_from_arrays(np.asarray(mesh.vertices), np.asarray(mesh.faces))
     if _ok(manifold):
-        return manifold, RepairReport(name, "fill_holes", len(corners), manifold.num_tri(), manifold.volume(),
-                                      f"merge gave {merge_status}")
+        return manifold, RepairReport(
+            name, "fill_holes", len(corners), manifold.num_tri(), manifold.volume(), f"merge gave {merge_status}"
+        )
     manifold, detail = level_set_remesh(name, vertices, faces, pitch)
-    return manifold, RepairReport(name, "level_set", len(corners), manifold.num_tri(), manifold.volume(),
-                                  f"merge gave {merge_status}; hole filling did not close it; {detail}")
+    return manifold, RepairReport(
+        name,
+        "level_set",
+        len(corners),
+        manifold.num_tri(),
+        manifold.volume(),
+        f"merge gave {merge_status}; hole filling did not close it; {detail}",
+    )
 
 
 def level_set_remesh(name: str, vertices: np.ndarray, faces: np.ndarray, pitch: float | None = None):
@@ -129,7 +137,10 @@ def level_set_remesh(name: str, vertices: np.ndarray, faces: np.ndarray, pitch: 
     manifold = manifold3d.Manifold.level_set(sdf, bounds, pitch, 0.0).simplify(pitch * LEVEL_SET_SIMPLIFY)
     if not _ok(manifold):
         raise MeshError(f"mesh part {name!r}: level-set remesh at pitch {pitch:.4f} m gave {manifold.status()}")
-    return manifold, f"level-set remesh at voxel pitch {pitch * 1000:.2f} mm (openings under ~{2 * pitch * 1000:.1f} mm closed)"
+    return (
+        manifold,
+        f"level-set remesh at voxel pitch {pitch * 1000:.2f} mm (openings under ~{2 * pitch * 1000:.1f} mm closed)",
+    )
 
 
 def _surface_points(mesh, spacing: float) -> np.ndarray:
@@ -189,5 +200,7 @@ def check_closed_manifold(vertices: np.ndarray, faces: np.ndarray, what: str) ->
 
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     if not (mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0):
-        raise MeshError(f"{what}: not a closed 2-manifold (watertight={mesh.is_watertight}, "
-                        f"winding consistent={mesh.is_winding_consistent}, volume={mesh.volume:.3g})")
+        raise MeshError(
+            f"{what}: not a closed 2-manifold (watertight={mesh.is_watertight}, "
+            f"winding consistent={mesh.is_winding_consistent}, volume={mesh.volume:.3g})"
+        )

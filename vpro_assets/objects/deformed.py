@@ -29,6 +29,7 @@ is not regenerated: `record.json` keeps the key of its inputs and the sha256 of 
 written last. Errors (`MeshError`, `InvalidParameterError`, `UnknownIdError`, all `VProError`)
 name the object and leave nothing behind in `out_dir` but files of other objects.
 """
+
 from __future__ import annotations
 
 import json
@@ -68,10 +69,23 @@ SEVERITIES = (1, 2, 3)
 # The object's up axis in its own mesh frame once LIBERO places it (measured from LIBERO's scenes
 # with scripts/measure_up_axes.py: every target category of a geometry case).
 UP_AXES: Mapping[str, str] = {
-    "akita_black_bowl": "+z", "alphabet_soup": "+y", "bbq_sauce": "+z", "black_book": "+z",
-    "butter": "+z", "chocolate_pudding": "+z", "cream_cheese": "+z", "ketchup": "+y", "milk": "+y",
-    "moka_pot": "+z", "orange_juice": "+y", "plate": "+z", "porcelain_mug": "+z",
-    "salad_dressing": "+y", "tomato_sauce": "+y", "white_yellow_mug": "+z", "wine_bottle": "+z",
+    "akita_black_bowl": "+z",
+    "alphabet_soup": "+y",
+    "bbq_sauce": "+z",
+    "black_book": "+z",
+    "butter": "+z",
+    "chocolate_pudding": "+z",
+    "cream_cheese": "+z",
+    "ketchup": "+y",
+    "milk": "+y",
+    "moka_pot": "+z",
+    "orange_juice": "+y",
+    "plate": "+z",
+    "porcelain_mug": "+z",
+    "salad_dressing": "+y",
+    "tomato_sauce": "+y",
+    "white_yellow_mug": "+z",
+    "wine_bottle": "+z",
 }
 
 
@@ -102,8 +116,8 @@ def libero_object_xml(category: str) -> Path:
 def up_axis(category: str) -> str:
     if category not in UP_AXES:
         raise InvalidParameterError(
-            f"object {category!r} has no measured up axis; add it to UP_AXES after running "
-            f"scripts/measure_up_axes.py")
+            f"object {category!r} has no measured up axis; add it to UP_AXES after running scripts/measure_up_axes.py"
+        )
     return UP_AXES[category]
 
 
@@ -114,11 +128,19 @@ def _versions() -> dict[str, str]:
 def input_key(category: str, deformation: str, severity: int, coacd_params: CoacdParams, xml_path: Path) -> dict:
     setting = geometry_setting(deformation, severity)
     return {
-        "generator": GENERATOR, "generator_version": GENERATOR_VERSION, "category": category,
-        "setting": setting.id, "params": setting.param_dict, "up_axis": up_axis(category),
-        "source_xml": xml_path.name, "source_sha256": content_sha256(xml_path),
-        "coacd": coacd_params.to_json(), "refine_fraction": REFINE_FRACTION,
-        "coacd_simplify_fraction": COACD_SIMPLIFY_FRACTION, "versions": _versions(), "code_sha256": PIPELINE_ID,
+        "generator": GENERATOR,
+        "generator_version": GENERATOR_VERSION,
+        "category": category,
+        "setting": setting.id,
+        "params": setting.param_dict,
+        "up_axis": up_axis(category),
+        "source_xml": xml_path.name,
+        "source_sha256": content_sha256(xml_path),
+        "coacd": coacd_params.to_json(),
+        "refine_fraction": REFINE_FRACTION,
+        "coacd_simplify_fraction": COACD_SIMPLIFY_FRACTION,
+        "versions": _versions(),
+        "code_sha256": PIPELINE_ID,
     }
 
 
@@ -151,9 +173,17 @@ def generate_deformed_object(
     shutil.rmtree(staging, ignore_errors=True)
     try:
         result = build_object(
-            name=name, category=category, deformation=deformation, severity=severity, setting=setting,
-            xml_path=xml_path, up=up_axis(category), coacd_params=coacd_params, key=key,
-            staging=staging, out_dir=out_dir,
+            name=name,
+            category=category,
+            deformation=deformation,
+            severity=severity,
+            setting=setting,
+            xml_path=xml_path,
+            up=up_axis(category),
+            coacd_params=coacd_params,
+            key=key,
+            staging=staging,
+            out_dir=out_dir,
         )
         publish_dir(staging, out_dir / name)
     except MeshError as exc:
@@ -185,8 +215,17 @@ def load_generated(out_dir: Path | str, name: str, key: dict | None = None) -> G
             log.info("%s: %s is missing or changed; regenerating", name, f.path)
             return None
     files.append(GeneratedFile(f"{name}/record.json", sha256_file(record_path), "record"))
-    return GeneratedObject(name, record["category"], record["deformation"], record["severity"], record["setting"],
-                           out_dir, tuple(files), record, cached=True)
+    return GeneratedObject(
+        name,
+        record["category"],
+        record["deformation"],
+        record["severity"],
+        record["setting"],
+        out_dir,
+        tuple(files),
+        record,
+        cached=True,
+    )
 
 
 def register_generated(obj: GeneratedObject) -> type:

@@ -7,6 +7,7 @@
 5. `object_record`, `write_files`: the record (measures, every file's sha256), then the files,
    the record last.
 """
+
 from __future__ import annotations
 
 import logging
@@ -139,8 +140,15 @@ def mesh_files(name: str, deformed: Deformed, hulls: list[trimesh.Trimesh]) -> F
     for i, (part, corners, uv, normals) in enumerate(deformed.visual_parts):
         vertices, faces, uv_vals, uv_faces = soup_to_indexed(corners, uv)
         normal_vals, normal_faces = (None, None) if normals is None else normals_to_indexed(normals)
-        data = obj_bytes(vertices, faces, uv_vals, uv_faces, header=f"{name} visual {i}: {part.name} deformed",
-                         normals=normal_vals, normal_faces=normal_faces)
+        data = obj_bytes(
+            vertices,
+            faces,
+            uv_vals,
+            uv_faces,
+            header=f"{name} visual {i}: {part.name} deformed",
+            normals=normal_vals,
+            normal_faces=normal_faces,
+        )
         mesh_file = f"meshes/{content_name(f'visual{i}', data, '.obj')}"
         out.files[mesh_file] = (data, "visual_mesh")
         texture_rel = None
@@ -150,8 +158,9 @@ def mesh_files(name: str, deformed: Deformed, hulls: list[trimesh.Trimesh]) -> F
             out.textures[f"textures/{tex_name}"] = (part.texture_file, sha256_bytes(tex_bytes))
             texture_rel = f"../textures/{tex_name}"
         out.visuals.append(VisualMesh(mesh_file, part.material, texture_rel, part.texture_attrs))
-        out.export_visuals.append(ExportMesh(f"visual{i}", mesh_file, vertices, faces, uv_vals, uv_faces,
-                                             _rgba(part.material), texture_rel))
+        out.export_visuals.append(
+            ExportMesh(f"visual{i}", mesh_file, vertices, faces, uv_vals, uv_faces, _rgba(part.material), texture_rel)
+        )
     out.solid_bytes = obj_bytes(deformed.vertices, deformed.faces, header=f"{name} closed solid (manifold3d), metres")
     out.files[f"meshes/{content_name('solid', out.solid_bytes, '.obj')}"] = (out.solid_bytes, "solid_mesh")
     for k, hull in enumerate(hulls):
@@ -159,7 +168,9 @@ def mesh_files(name: str, deformed: Deformed, hulls: list[trimesh.Trimesh]) -> F
         hull_file = f"meshes/{content_name('hull', data, '.obj')}"
         out.files[hull_file] = (data, "hull_mesh")
         out.hull_files.append(hull_file)
-        out.export_hulls.append(ExportMesh(f"hull{k:02d}", hull_file, np.asarray(hull.vertices), np.asarray(hull.faces)))
+        out.export_hulls.append(
+            ExportMesh(f"hull{k:02d}", hull_file, np.asarray(hull.vertices), np.asarray(hull.faces))
+        )
         out.hull_volume += float(hull.volume)
     return out
 
@@ -183,15 +194,27 @@ def object_files(name: str, original: Original, deformed: Deformed, out: Files, 
             site["pos"] = " ".join(f"{x:.6f}" for x in (pos[0] * radius_ratio, pos[1] * radius_ratio, pos[2]))
         sites.append(site)
     source = original.source
-    out.files[f"{name}.xml"] = (object_xml(name, out.visuals, out.hull_files, mass / out.hull_volume, inertial,
-                                           source.collision_attrs, sites, source.object_body_pos), "mjcf")
+    out.files[f"{name}.xml"] = (
+        object_xml(
+            name,
+            out.visuals,
+            out.hull_files,
+            mass / out.hull_volume,
+            inertial,
+            source.collision_attrs,
+            sites,
+            source.object_body_pos,
+        ),
+        "mjcf",
+    )
     out.files[f"{name}.urdf"] = (urdf_text(name, out.export_visuals, out.export_hulls, inertial).encode(), "urdf")
     out.files[f"{name}.usda"] = (usd_text(name, out.export_visuals, out.export_hulls, inertial).encode(), "usd")
     return inertial
 
 
-def object_record(header: dict[str, Any], original: Original, deformed: Deformed, hull_count: int, out: Files,
-                  mass: float) -> dict:
+def object_record(
+    header: dict[str, Any], original: Original, deformed: Deformed, hull_count: int, out: Files, mass: float
+) -> dict:
     """The object's record: `header` (names, setting, input key), repairs, measures (no file list yet)."""
     frame, solid0, solid = original.frame, original.solid, deformed.solid
     ext0, ext1 = _upright_extents(frame, original.vertices), _upright_extents(frame, deformed.vertices)
@@ -199,15 +222,20 @@ def object_record(header: dict[str, Any], original: Original, deformed: Deformed
         **header,
         "repair": [r.__dict__ for r in original.reports],
         "measures": {
-            "original_volume_m3": _r(solid0.volume()), "volume_m3": _r(solid.volume()),
+            "original_volume_m3": _r(solid0.volume()),
+            "volume_m3": _r(solid.volume()),
             "volume_ratio": _r(solid.volume() / solid0.volume()),
-            "original_extents_m": [_r(x) for x in ext0], "extents_m": [_r(x) for x in ext1],
+            "original_extents_m": [_r(x) for x in ext0],
+            "extents_m": [_r(x) for x in ext1],
             "extent_ratios": [_r(x) for x in ext1 / ext0],
             "max_radius_ratio": _r(_radius_ratio(original, deformed)),
-            "mean_displacement": _r(deform_mod.displacement_measure(original.vertices, deformed.warp,
-                                                                    float(np.linalg.norm(ext0)))),
-            "hull_count": hull_count, "hull_volume_ratio": _r(out.hull_volume / solid.volume()),
-            "mass_kg": _r(mass), "solid_faces": int(len(deformed.faces)),
+            "mean_displacement": _r(
+                deform_mod.displacement_measure(original.vertices, deformed.warp, float(np.linalg.norm(ext0)))
+            ),
+            "hull_count": hull_count,
+            "hull_volume_ratio": _r(out.hull_volume / solid.volume()),
+            "mass_kg": _r(mass),
+            "solid_faces": int(len(deformed.faces)),
             "visual_faces": int(sum(len(c) for _p, c, _u, _n in deformed.visual_parts)),
         },
     }
@@ -216,7 +244,9 @@ def object_record(header: dict[str, Any], original: Original, deformed: Deformed
 def write_files(name: str, out: Files, record: dict, staging: Path, out_dir: Path) -> list[GeneratedFile]:
     """Write the object folder into `staging` (the record last: it marks the object complete) and
     the shared textures into `out_dir`; return every file with its sha256."""
-    file_list = [GeneratedFile(f"{name}/{path}", sha256_bytes(data), role) for path, (data, role) in sorted(out.files.items())]
+    file_list = [
+        GeneratedFile(f"{name}/{path}", sha256_bytes(data), role) for path, (data, role) in sorted(out.files.items())
+    ]
     file_list += [GeneratedFile(path, sha, "texture") for path, (_src, sha) in sorted(out.textures.items())]
     record["files"] = [f.__dict__ for f in file_list]
     record_bytes = canonical_json(record).encode()
@@ -231,8 +261,20 @@ def write_files(name: str, out: Files, record: dict, staging: Path, out_dir: Pat
     return file_list
 
 
-def build_object(*, name: str, category: str, deformation: str, severity: int, setting: Setting, xml_path: Path,
-                 up: str, coacd_params: CoacdParams, key: dict, staging: Path, out_dir: Path) -> GeneratedObject:
+def build_object(
+    *,
+    name: str,
+    category: str,
+    deformation: str,
+    severity: int,
+    setting: Setting,
+    xml_path: Path,
+    up: str,
+    coacd_params: CoacdParams,
+    key: dict,
+    staging: Path,
+    out_dir: Path,
+) -> GeneratedObject:
     """Run the stages for one object; its folder goes to `staging`, shared textures to `out_dir`."""
     what = f"{category} {deformation} s{severity}"
     timings: dict[str, float] = {}
@@ -248,15 +290,40 @@ def build_object(*, name: str, category: str, deformation: str, severity: int, s
     mass = libero_mass(xml_path)
     object_files(name, original, deformed, out, mass)
     check_closed_manifold(*_quantized_arrays(out.solid_bytes), f"{name} solid mesh as written")
-    header = {"name": name, "category": category, "deformation": deformation, "severity": severity,
-              "setting": setting.id, "amount": amount, "up_axis": up, "input_key": key}
+    header = {
+        "name": name,
+        "category": category,
+        "deformation": deformation,
+        "severity": severity,
+        "setting": setting.id,
+        "amount": amount,
+        "up_axis": up,
+        "input_key": key,
+    }
     record = object_record(header, original, deformed, len(hulls), out, mass)
     file_list = write_files(name, out, record, staging, out_dir)
     timings["write"] = time.perf_counter() - t
-    log.info("%s: repair %.1fs, deformation %.1fs, coacd %.1fs (%d hulls), write %.1fs", name,
-             timings["manifold_repair"], timings["deformation"], timings["coacd"], len(hulls), timings["write"])
-    return GeneratedObject(name, category, deformation, severity, setting.id, out_dir, tuple(file_list), record,
-                           cached=False, timings=timings)
+    log.info(
+        "%s: repair %.1fs, deformation %.1fs, coacd %.1fs (%d hulls), write %.1fs",
+        name,
+        timings["manifold_repair"],
+        timings["deformation"],
+        timings["coacd"],
+        len(hulls),
+        timings["write"],
+    )
+    return GeneratedObject(
+        name,
+        category,
+        deformation,
+        severity,
+        setting.id,
+        out_dir,
+        tuple(file_list),
+        record,
+        cached=False,
+        timings=timings,
+    )
 
 
 def _upright_extents(frame: deform_mod.UprightFrame, vertices: np.ndarray) -> np.ndarray:

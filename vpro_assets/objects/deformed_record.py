@@ -1,5 +1,6 @@
 """What the deformed-object pipeline returns: the object's files with their sha256, its record
 (`record.json`) and, when built rather than reused, the seconds each stage took."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

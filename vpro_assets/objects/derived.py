@@ -6,6 +6,7 @@ A mesh (or height field, skin) is looked up under the compiler's `meshdir`, a te
 same paths relative to the new XML, so the compiler settings stay valid and the object folder is
 self-contained.
 """
+
 from __future__ import annotations
 
 import shutil

@@ -7,6 +7,7 @@ UsdPhysics rigid-body, mass and convex-hull collision schemas; the URDF has one 
 `<mujoco><compiler .../></mujoco>` block so MuJoCo compiles it directly. usd-core is imported only
 here, when an export is asked for.
 """
+
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
@@ -78,7 +79,9 @@ def usd_text(name: str, visuals: list[ExportMesh], hulls: list[ExportMesh], iner
             texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(mesh.texture_file)
             texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
             texture.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
-            shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(texture.ConnectableAPI(), "rgb")
+            shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+                texture.ConnectableAPI(), "rgb"
+            )
         else:
             rgba = mesh.rgba or (0.8, 0.8, 0.8, 1.0)
             shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, rgba[:3])))
@@ -104,7 +107,8 @@ def _mesh_prim(stage, path: str, mesh: ExportMesh):
     prim.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(np.stack([lo, hi])))
     if mesh.uv is not None:
         st = UsdGeom.PrimvarsAPI(prim.GetPrim()).CreatePrimvar(
-            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying
+        )
         st.Set(Vt.Vec2fArray.FromNumpy(quantize(mesh.uv).astype(np.float32)))
         st.SetIndices(Vt.IntArray.FromNumpy(np.asarray(mesh.uv_faces, np.int32).reshape(-1)))
     return prim
@@ -113,16 +117,28 @@ def _mesh_prim(stage, path: str, mesh: ExportMesh):
 def urdf_text(name: str, visuals: list[ExportMesh], hulls: list[ExportMesh], inertial: Inertial) -> str:
     """One-link URDF (yourdfpy loads it; MuJoCo compiles it, reading meshes from their folder)."""
     robot = ET.Element("robot", {"name": name})
-    ET.SubElement(ET.SubElement(robot, "mujoco"), "compiler",
-                  {"strippath": "false", "discardvisual": "true", "balanceinertia": "false", "fusestatic": "false"})
+    ET.SubElement(
+        ET.SubElement(robot, "mujoco"),
+        "compiler",
+        {"strippath": "false", "discardvisual": "true", "balanceinertia": "false", "fusestatic": "false"},
+    )
     link = ET.SubElement(robot, "link", {"name": name})
     inertial_el = ET.SubElement(link, "inertial")
     ET.SubElement(inertial_el, "origin", {"xyz": fmt_fixed(inertial.com), "rpy": "0 0 0"})
     ET.SubElement(inertial_el, "mass", {"value": fmt_sci(inertial.mass)})
     i = inertial.inertia
-    ET.SubElement(inertial_el, "inertia", {
-        "ixx": fmt_sci(i[0, 0]), "ixy": fmt_sci(i[0, 1]), "ixz": fmt_sci(i[0, 2]),
-        "iyy": fmt_sci(i[1, 1]), "iyz": fmt_sci(i[1, 2]), "izz": fmt_sci(i[2, 2])})
+    ET.SubElement(
+        inertial_el,
+        "inertia",
+        {
+            "ixx": fmt_sci(i[0, 0]),
+            "ixy": fmt_sci(i[0, 1]),
+            "ixz": fmt_sci(i[0, 2]),
+            "iyy": fmt_sci(i[1, 1]),
+            "iyz": fmt_sci(i[1, 2]),
+            "izz": fmt_sci(i[2, 2]),
+        },
+    )
     for mesh in visuals:
         visual = ET.SubElement(link, "visual", {"name": mesh.name})
         ET.SubElement(ET.SubElement(visual, "geometry"), "mesh", {"filename": mesh.file})

@@ -8,6 +8,7 @@ file registers with `vpro_assets.objects.registry` and loads through robosuite's
 density, and an explicit `<inertial>` states the same mass with the inertia of the solid.
 Attributes are written in a fixed order at fixed precision, so equal inputs give equal bytes.
 """
+
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
@@ -76,8 +77,15 @@ def object_xml(
     asset = ET.SubElement(root, "asset")
     for i, visual in enumerate(visuals):
         if visual.texture_file is not None:
-            ET.SubElement(asset, "texture", {"name": f"{name}_tex{i}", "file": visual.texture_file,
-                                             **dict(sorted({"type": "2d", **visual.texture_attrs}.items()))})
+            ET.SubElement(
+                asset,
+                "texture",
+                {
+                    "name": f"{name}_tex{i}",
+                    "file": visual.texture_file,
+                    **dict(sorted({"type": "2d", **visual.texture_attrs}.items())),
+                },
+            )
         attrs = dict(sorted(visual.material.items()))
         if visual.texture_file is not None:
             attrs["texture"] = f"{name}_tex{i}"
@@ -88,17 +96,41 @@ def object_xml(
     worldbody = ET.SubElement(root, "worldbody")
     outer = ET.SubElement(worldbody, "body")
     body = ET.SubElement(outer, "body", {"name": "object", **({"pos": body_pos} if body_pos else {})})
-    ET.SubElement(body, "inertial", {"pos": fmt_fixed(inertial.com), "mass": fmt_sci(inertial.mass),
-                                     "fullinertia": inertial.fullinertia()})
+    ET.SubElement(
+        body,
+        "inertial",
+        {"pos": fmt_fixed(inertial.com), "mass": fmt_sci(inertial.mass), "fullinertia": inertial.fullinertia()},
+    )
     for i, _visual in enumerate(visuals):
-        ET.SubElement(body, "geom", {"name": f"{name}_vis{i}", "type": "mesh", "mesh": f"{name}_vis{i}",
-                                     "material": f"{name}_mat{i}", "group": VISUAL_GROUP, "contype": "0",
-                                     "conaffinity": "0", "mass": "0"})
+        ET.SubElement(
+            body,
+            "geom",
+            {
+                "name": f"{name}_vis{i}",
+                "type": "mesh",
+                "mesh": f"{name}_vis{i}",
+                "material": f"{name}_mat{i}",
+                "group": VISUAL_GROUP,
+                "contype": "0",
+                "conaffinity": "0",
+                "mass": "0",
+            },
+        )
     contact = dict(sorted(collision_attrs.items()))
     for k, _hull in enumerate(hull_files):
-        ET.SubElement(body, "geom", {"name": f"{name}_hull{k:02d}", "type": "mesh", "mesh": f"{name}_hull{k:02d}",
-                                     "group": COLLISION_GROUP, "density": fmt_sci(hull_density), **contact,
-                                     "rgba": COLLISION_RGBA})
+        ET.SubElement(
+            body,
+            "geom",
+            {
+                "name": f"{name}_hull{k:02d}",
+                "type": "mesh",
+                "mesh": f"{name}_hull{k:02d}",
+                "group": COLLISION_GROUP,
+                "density": fmt_sci(hull_density),
+                **contact,
+                "rgba": COLLISION_RGBA,
+            },
+        )
     for site in sites:
         ET.SubElement(outer, "site", dict(site))
     ET.indent(root, space="  ")
@@ -152,8 +184,9 @@ class DropResult:
         return not self.warnings and self.tilt <= max_tilt and self.drift <= max_drift and self.turn <= max_turn
 
 
-def drop_test(object_xml_path, up_axis: str = "+z", clearance: float = 0.003, seconds: float = 2.0,
-              window: float = 0.5) -> DropResult:
+def drop_test(
+    object_xml_path, up_axis: str = "+z", clearance: float = 0.003, seconds: float = 2.0, window: float = 0.5
+) -> DropResult:
     """Drop the object (upright, `clearance` above the table top) and measure how it rests."""
     rotate = {"+z": (1.0, 0.0, 0.0, 0.0), "+y": (np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0)}
     if up_axis not in rotate:
@@ -163,8 +196,11 @@ def drop_test(object_xml_path, up_axis: str = "+z", clearance: float = 0.003, se
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     body = model.body("object").id
-    lowest = min(float(data.geom_xpos[g][2] - _geom_depth(model, data, g)) for g in range(model.ngeom)
-                 if model.geom_bodyid[g] == body and model.geom_group[g] == 0)
+    lowest = min(
+        float(data.geom_xpos[g][2] - _geom_depth(model, data, g))
+        for g in range(model.ngeom)
+        if model.geom_bodyid[g] == body and model.geom_group[g] == 0
+    )
     data.qpos[2] = 1.0 - lowest + clearance
     steps, window_steps = int(seconds / model.opt.timestep), int(window / model.opt.timestep)
     if not 0 < window_steps <= steps:
@@ -184,9 +220,16 @@ def drop_test(object_xml_path, up_axis: str = "+z", clearance: float = 0.003, se
     dq = np.zeros(3)
     mujoco.mju_subQuat(dq, data.qpos[3:7], start[1])
     return DropResult(
-        warnings={str(mujoco.mjtWarning(i)).split(".")[-1]: int(w.number) for i, w in enumerate(data.warning) if w.number},
-        tilt=tilt, drift=float(np.linalg.norm(data.qpos[:3] - start[0])), turn=float(np.degrees(np.linalg.norm(dq))),
-        speed=speed, height=float(data.qpos[2]), mass=float(model.body_subtreemass[body]))
+        warnings={
+            str(mujoco.mjtWarning(i)).split(".")[-1]: int(w.number) for i, w in enumerate(data.warning) if w.number
+        },
+        tilt=tilt,
+        drift=float(np.linalg.norm(data.qpos[:3] - start[0])),
+        turn=float(np.degrees(np.linalg.norm(dq))),
+        speed=speed,
+        height=float(data.qpos[2]),
+        mass=float(model.body_subtreemass[body]),
+    )
 
 
 def _geom_depth(model, data, geom: int) -> float:
@@ -194,6 +237,6 @@ def _geom_depth(model, data, geom: int) -> float:
     if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_MESH:
         mesh = model.geom_dataid[geom]
         start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-        vertices = model.mesh_vert[start:start + count] @ data.geom_xmat[geom].reshape(3, 3).T
+        vertices = model.mesh_vert[start : start + count] @ data.geom_xmat[geom].reshape(3, 3).T
         return float(-vertices[:, 2].min())
     return float(model.geom_rbound[geom])

@@ -12,6 +12,7 @@ registers again without complaint; the first copy keeps serving while it exists)
 (`<worldbody><body><body name="object">...</body><site name="bottom_site"/>...</body></worldbody>`):
 generated deformed targets, recoloured distractors, visual-only copies.
 """
+
 from __future__ import annotations
 
 import copy
@@ -90,7 +91,11 @@ def content_sha256(xml_path: Path | str) -> str:
 
 
 def _placement_from(template: str | None, overrides: Mapping[str, Any]) -> dict[str, Any]:
-    placement: dict[str, Any] = {"rotation": (0.0, 0.0), "rotation_axis": "z", "object_properties": {"vis_site_names": {}}}
+    placement: dict[str, Any] = {
+        "rotation": (0.0, 0.0),
+        "rotation_axis": "z",
+        "object_properties": {"vis_site_names": {}},
+    }
     if template is not None:
         objects = _objects_dict()
         if template not in objects:
@@ -101,7 +106,9 @@ def _placement_from(template: str | None, overrides: Mapping[str, Any]) -> dict[
                 placement[key] = getattr(probe, key)
     for key, value in overrides.items():
         if key not in _PLACEMENT_KEYS + ("object_properties",):
-            raise ObjectRegistryError(f"unknown placement attribute {key!r}; allowed: rotation, rotation_axis, object_properties")
+            raise ObjectRegistryError(
+                f"unknown placement attribute {key!r}; allowed: rotation, rotation_axis, object_properties"
+            )
         placement[key] = value
     return placement
 

@@ -4,11 +4,11 @@ Only rows with `status = 'ok'` count towards a success rate; errors and unavaila
 reported next to it, never as failures. The drop of a group is taken against the Normal success
 rate of the same policy on the same tasks the group covers.
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Callable, Iterable, Optional
-
 
 from vpro_assets.rollout.contacts import COMPOSITIONS
 
@@ -21,11 +21,11 @@ class Rate:
     unavailable: int = 0
 
     @property
-    def sr(self) -> Optional[float]:
+    def sr(self) -> float | None:
         return 100.0 * self.successes / self.trials if self.trials else None
 
     @property
-    def ci(self) -> Optional[tuple[float, float]]:
+    def ci(self) -> tuple[float, float] | None:
         """Wilson score interval at 95%, in percent."""
         if not self.trials:
             return None
@@ -50,7 +50,7 @@ def rate(rows: Iterable[dict]) -> Rate:
     return Rate(succ, ok, err, unav)
 
 
-def group(rows: Iterable[dict], key: Callable[[dict], Optional[str]]) -> dict[str, list[dict]]:
+def group(rows: Iterable[dict], key: Callable[[dict], str | None]) -> dict[str, list[dict]]:
     out: dict[str, list[dict]] = {}
     for r in rows:
         k = key(r)
@@ -59,11 +59,11 @@ def group(rows: Iterable[dict], key: Callable[[dict], Optional[str]]) -> dict[st
     return out
 
 
-def normal_rate(rows: list[dict], tasks: Optional[set[str]] = None) -> Rate:
+def normal_rate(rows: list[dict], tasks: set[str] | None = None) -> Rate:
     return rate(r for r in rows if r["category"] == "normal" and (tasks is None or r["task"] in tasks))
 
 
-def drop(cell_rows: list[dict], all_rows: list[dict]) -> Optional[float]:
+def drop(cell_rows: list[dict], all_rows: list[dict]) -> float | None:
     """Normal SR on the tasks of `cell_rows` minus their SR (positive = worse than Normal)."""
     cell = rate(cell_rows)
     tasks = {r["task"] for r in cell_rows if r["status"] == "ok"}
@@ -75,7 +75,7 @@ def drop(cell_rows: list[dict], all_rows: list[dict]) -> Optional[float]:
 
 def composition(rows: Iterable[dict]) -> dict[str, int]:
 
-    counts = {k: 0 for k in COMPOSITIONS}
+    counts = dict.fromkeys(COMPOSITIONS, 0)
     for r in rows:
         if r["status"] == "ok" and r.get("contact") in counts:
             counts[r["contact"]] += 1

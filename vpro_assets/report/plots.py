@@ -5,6 +5,7 @@
 - `contact_composition.png`: stacked bars of contact composition per distractor type.
 - `phase_corruption.png`: SR by corruption trigger phase.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -34,8 +35,10 @@ def _bars(ax, labels, series, hatches=None):
     x = np.arange(len(labels))
     for i, (name, rates) in enumerate(series.items()):
         srs = [r.sr if r.sr is not None else 0.0 for r in rates]
-        err = [[(r.sr - r.ci[0]) if r.sr is not None else 0 for r in rates],
-               [(r.ci[1] - r.sr) if r.sr is not None else 0 for r in rates]]
+        err = [
+            [(r.sr - r.ci[0]) if r.sr is not None else 0 for r in rates],
+            [(r.ci[1] - r.sr) if r.sr is not None else 0 for r in rates],
+        ]
         bars = ax.bar(x + i * width - 0.4 + width / 2, srs, width, yerr=err, capsize=2, label=name)
         for bar, hatch in zip(bars, hatches or []):
             bar.set_hatch(hatch)
@@ -53,9 +56,15 @@ def write_plots(rows: list[dict], out: Path) -> list[Path]:
 
     cats = [c for c in tx.CATEGORIES if any(r["category"] == c.id for r in rows)]
     fig, ax = plt.subplots(figsize=(max(6, 1.0 * len(cats) + 2), 4))
-    series = {pid: [rate(r for r in rows if r["policy_id"] == pid and r["category"] == c.id) for c in cats] for pid in pids}
-    _bars(ax, [f"{c.title} {'↑' if c.indicator == tx.ROBUSTNESS else '◇'}" for c in cats], series,
-          ["" if c.indicator == tx.ROBUSTNESS else "//" for c in cats])
+    series = {
+        pid: [rate(r for r in rows if r["policy_id"] == pid and r["category"] == c.id) for c in cats] for pid in pids
+    }
+    _bars(
+        ax,
+        [f"{c.title} {'↑' if c.indicator == tx.ROBUSTNESS else '◇'}" for c in cats],
+        series,
+        ["" if c.indicator == tx.ROBUSTNESS else "//" for c in cats],
+    )
     for pid in pids:
         base = normal_rate([r for r in rows if r["policy_id"] == pid])
         if base.sr is not None:
@@ -69,8 +78,10 @@ def write_plots(rows: list[dict], out: Path) -> list[Path]:
     kinds = list(tx.DISTRACTOR_RULES)
     fig, axes = plt.subplots(1, max(1, len(pids)), figsize=(5 * max(1, len(pids)), 3.5), squeeze=False)
     for ax, pid in zip(axes[0], pids or ["-"]):
-        by = group([r for r in rows if r["policy_id"] == pid and r["category"] == "task_relevant_distractors"],
-                   lambda r: params(r["setting"]).get("distractor"))
+        by = group(
+            [r for r in rows if r["policy_id"] == pid and r["category"] == "task_relevant_distractors"],
+            lambda r: params(r["setting"]).get("distractor"),
+        )
         bottom = [0.0] * len(kinds)
         for comp in COMPOSITIONS:
             vals = []
@@ -90,8 +101,12 @@ def write_plots(rows: list[dict], out: Path) -> list[Path]:
 
     fig, ax = plt.subplots(figsize=(5, 3.5))
     cat = [r for r in rows if r["category"] == "temporary_observation_corruption"]
-    series = {pid: [rate(r for r in cat if r["policy_id"] == pid and params(r["setting"]).get("phase") == p)
-                    for p in tx.PHASES] for pid in pids}
+    series = {
+        pid: [
+            rate(r for r in cat if r["policy_id"] == pid and params(r["setting"]).get("phase") == p) for p in tx.PHASES
+        ]
+        for pid in pids
+    }
     _bars(ax, list(tx.PHASES), series)
     ax.set_title("Success rate under phase-triggered corruption", fontsize=9)
     if pids:

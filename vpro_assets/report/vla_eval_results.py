@@ -17,6 +17,7 @@ schema, so the tables, plots and Wilson intervals are computed by the same code:
 An episode recorded twice (a shard rerun with the same eval id) counts once: a finished record wins
 over an error, and the later of two of the same kind.
 """
+
 from __future__ import annotations
 
 import json
@@ -29,8 +30,17 @@ from vpro_assets.core.errors import VProError
 from vpro_assets.rollout.episode import EpisodeSettings
 
 LABELS = ("case_id", "suite", "task", "dimension", "category", "setting", "indicator", "level")
-ROW_FIELDS = ("seed", "steps", "phase_timeline", "contact", "contact_detail", "wall_time", "artifact_hashes",
-              "video", "final_state")
+ROW_FIELDS = (
+    "seed",
+    "steps",
+    "phase_timeline",
+    "contact",
+    "contact_detail",
+    "wall_time",
+    "artifact_hashes",
+    "video",
+    "final_state",
+)
 
 
 def _recordings(path: Path) -> list[Path]:
@@ -49,7 +59,10 @@ def _has_table(path: Path, table: str) -> bool:
     try:
         con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
         try:
-            return con.execute("SELECT 1 FROM sqlite_master WHERE type='table' AND name=?", (table,)).fetchone() is not None
+            return (
+                con.execute("SELECT 1 FROM sqlite_master WHERE type='table' AND name=?", (table,)).fetchone()
+                is not None
+            )
         finally:
             con.close()
     except sqlite3.Error:
@@ -82,13 +95,25 @@ def to_row(record: dict, run_id: str, policy_id: str) -> dict:
     source = metrics if status == "ok" else {**metrics, **context}
     case_id = source.get("case_id") or context.get("name")
     if not case_id:
-        raise VProError(f"run {run_id}: an episode of task {record.get('task_name')!r} carries no case id; "
-                        "not a LIBERO-VPro result")
+        raise VProError(
+            f"run {run_id}: an episode of task {record.get('task_name')!r} carries no case id; not a LIBERO-VPro result"
+        )
     trial = source.get("trial", context.get("episode_idx", record.get("episode_id")))
-    row: dict[str, Any] = {"run_id": run_id, "case_id": case_id, "trial": int(trial), "policy_id": policy_id,
-                           "status": status, "success": bool(metrics.get("success")) if status == "ok" else None,
-                           "error": _error_text(record), "error_kind": record.get("failure_reason"),
-                           "attempts": 1, "worker": record.get("sid"), "finished_at": None}
+    if trial is None:
+        raise VProError(f"run {run_id}: the episode of case {case_id} records no trial index")
+    row: dict[str, Any] = {
+        "run_id": run_id,
+        "case_id": case_id,
+        "trial": int(trial),
+        "policy_id": policy_id,
+        "status": status,
+        "success": bool(metrics.get("success")) if status == "ok" else None,
+        "error": _error_text(record),
+        "error_kind": record.get("failure_reason"),
+        "attempts": 1,
+        "worker": record.get("sid"),
+        "finished_at": None,
+    }
     for key in LABELS:
         row[key] = source.get(key)
     for key in ROW_FIELDS:
@@ -102,12 +127,19 @@ def _run(eval_id: str, metadata: dict, policy: str | None) -> dict:
     config = metadata.get("config") or {}
     params = config.get("params") or {}
     server = (metadata.get("server_info") or {}).get("model_server") or "vla-eval model server"
-    settings = EpisodeSettings(resolution=int(params.get("resolution", 256)),
-                               wait_steps=int(params.get("num_steps_wait", 10)),
-                               max_steps_override=params.get("max_steps") or config.get("max_steps")).to_json()
-    return {"run_id": eval_id, "policy_id": policy or server, "policy_spec": f"vla-eval {metadata.get('harness_version', '')} "
-            f"{config.get('benchmark', '')}".strip(), "trials": config.get("episodes_per_task"), "settings": settings,
-            "selection": params.get("select")}
+    settings = EpisodeSettings(
+        resolution=int(params.get("resolution", 256)),
+        wait_steps=int(params.get("num_steps_wait", 10)),
+        max_steps_override=params.get("max_steps") or config.get("max_steps"),
+    ).to_json()
+    return {
+        "run_id": eval_id,
+        "policy_id": policy or server,
+        "policy_spec": f"vla-eval {metadata.get('harness_version', '')} {config.get('benchmark', '')}".strip(),
+        "trials": config.get("episodes_per_task"),
+        "settings": settings,
+        "selection": params.get("select"),
+    }
 
 
 def _from_recording(path: Path, policy: str | None) -> Iterable[tuple[dict, list[tuple[int, dict]]]]:
@@ -117,7 +149,9 @@ def _from_recording(path: Path, policy: str | None) -> Iterable[tuple[dict, list
         for meta in con.execute("SELECT eval_id, metadata FROM eval_metadata ORDER BY eval_id"):
             run = _run(meta["eval_id"], json.loads(meta["metadata"]), policy)
             records = []
-            for r in con.execute("SELECT rowid, * FROM episode_results WHERE eval_id = ? ORDER BY rowid", (meta["eval_id"],)):
+            for r in con.execute(
+                "SELECT rowid, * FROM episode_results WHERE eval_id = ? ORDER BY rowid", (meta["eval_id"],)
+            ):
                 rec = dict(r)
                 rec["metrics"] = json.loads(rec["metrics"]) if rec["metrics"] else {}
                 rec["context"] = json.loads(rec["context"]) if rec["context"] else {}
@@ -140,7 +174,7 @@ def _from_aggregate(path: Path, policy: str | None) -> Iterable[tuple[dict, list
     if not isinstance(body, dict) or "tasks" not in body:
         raise VProError(f"{path}: not a vla-eval aggregate JSON (no 'tasks')")
     run = _run(body.get("eval_id") or path.stem, body, policy)
-    records = []
+    records: list[tuple[int, dict]] = []
     for task in body["tasks"]:
         for ep in task.get("episodes", []):
             rec = {k: ep.get(k) for k in _EPISODE_KEYS}
@@ -171,8 +205,14 @@ def read_vla_eval(path: Path | str, policy: str | None = None) -> tuple[list[dic
                 if key not in kept or rank >= kept[key][:2]:
                     kept[key] = (*rank, row)
             # the simulator and library versions the episodes ran with (recorded by the benchmark)
-            run["versions"] = next((rec["metrics"]["versions"] for _, rec in records
-                                    if isinstance((rec.get("metrics") or {}).get("versions"), dict)), {})
+            run["versions"] = next(
+                (
+                    rec["metrics"]["versions"]
+                    for _, rec in records
+                    if isinstance((rec.get("metrics") or {}).get("versions"), dict)
+                ),
+                {},
+            )
             runs.append(run)
             rows += [v[2] for _, v in sorted(kept.items())]
     return runs, rows

@@ -1,8 +1,9 @@
 """`vpro report`: every table in Markdown (`report.md`) and LaTeX (`tables.tex`), plus PNG plots."""
+
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Optional, Sequence
 
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
@@ -18,15 +19,21 @@ def simulators_of(rows: Sequence[dict], runs: Sequence[dict]) -> dict[str, int]:
     run_versions = {r["run_id"]: r["versions"] for r in runs}
     counts: dict[str, int] = {}
     for row in rows:
-        versions = row.get("simulator") or {k: v for k, v in run_versions.get(row["run_id"], {}).items()
-                                             if k in SIMULATOR_PACKAGES}
+        versions = row.get("simulator") or {
+            k: v for k, v in run_versions.get(row["run_id"], {}).items() if k in SIMULATOR_PACKAGES
+        }
         label = simulator_label(versions) if versions else "simulator not recorded"
         counts[label] = counts.get(label, 0) + 1
     return counts
 
 
-def write_report(results: Path | str, out: Path | str, run_ids: Optional[Sequence[str]] = None,
-                 plots: bool = True, pool_simulators: bool = False) -> dict:
+def write_report(
+    results: Path | str,
+    out: Path | str,
+    run_ids: Sequence[str] | None = None,
+    plots: bool = True,
+    pool_simulators: bool = False,
+) -> dict:
     results, out = Path(results), Path(out)
     if is_vla_eval_results(results):  # a vla-eval results directory (docs/vla-eval.md)
         runs, all_rows = read_vla_eval(results)
@@ -46,25 +53,35 @@ def write_report(results: Path | str, out: Path | str, run_ids: Optional[Sequenc
         raise VProError(f"{results}: no episodes recorded" + (f" in runs {', '.join(run_ids)}" if run_ids else ""))
     simulators = simulators_of(rows, chosen)
     if len(simulators) > 1 and not pool_simulators:
-        raise VProError(f"{results}: the episodes come from {len(simulators)} simulators ("
-                        + "; ".join(f"{label}: {n} episode(s)" for label, n in sorted(simulators.items()))
-                        + "); choose runs of one with --run, or pool them with --pool-simulators")
+        raise VProError(
+            f"{results}: the episodes come from {len(simulators)} simulators ("
+            + "; ".join(f"{label}: {n} episode(s)" for label, n in sorted(simulators.items()))
+            + "); choose runs of one with --run, or pool them with --pool-simulators"
+        )
     tables = all_tables(rows)
-    header = ["# LIBERO-VPro report", "", f"Results: `{results}`; {len(rows)} episode row(s) from {len(chosen)} run(s):", ""]
+    header = [
+        "# LIBERO-VPro report",
+        "",
+        f"Results: `{results}`; {len(rows)} episode row(s) from {len(chosen)} run(s):",
+        "",
+    ]
     for label, n in sorted(simulators.items()):
-        header.append(f"- simulator: {label} ({n} episode(s))" + (" POOLED with other simulators (--pool-simulators)"
-                                                                    if len(simulators) > 1 else ""))
+        header.append(
+            f"- simulator: {label} ({n} episode(s))"
+            + (" POOLED with other simulators (--pool-simulators)" if len(simulators) > 1 else "")
+        )
     for r in chosen:
         s = r["settings"]
-        header.append(f"- `{r['run_id']}`: policy `{r['policy_id']}` ({r['policy_spec']}), {r['trials']} trial(s)/case, "
-                      f"resolution {s['resolution']}, {s['wait_steps']} wait steps, max steps "
-                      f"{s['max_steps_override'] or s['max_steps']}")
+        header.append(
+            f"- `{r['run_id']}`: policy `{r['policy_id']}` ({r['policy_spec']}), {r['trials']} trial(s)/case, "
+            f"resolution {s['resolution']}, {s['wait_steps']} wait steps, max steps "
+            f"{s['max_steps_override'] or s['max_steps']}"
+        )
     md = "\n".join(header) + "\n\n" + "\n".join(t.markdown() for t in tables)
     out.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out / "report.md", md)
     write_text_atomic(out / "tables.tex", LATEX_PREAMBLE + "\n" + "\n".join(t.latex() for t in tables))
     written = {"markdown": out / "report.md", "latex": out / "tables.tex", "plots": []}
     if plots:
-
         written["plots"] = write_plots(rows, out)
     return written

@@ -5,6 +5,7 @@ joint layout (to carry states into variants), where every object and fixture sit
 trial rows, the target's familiar position (mean over all of LIBERO's initial states) and the
 workspace (fixture name, offset of LIBERO's region coordinates).
 """
+
 from __future__ import annotations
 
 import functools
@@ -97,14 +98,22 @@ def base_scene(task_key: str) -> BaseScene:
         sim.settle(env)
         surface = float(np.median([v["lo"][2] for v in sim.body_layout(env).values() if v["kind"] == "object"]))
         return BaseScene(
-            task=task, bddl=bddl, rows=rows, trial_rows=trial_rows, slots=slots, layouts=layouts,
+            task=task,
+            bddl=bddl,
+            rows=rows,
+            trial_rows=trial_rows,
+            slots=slots,
+            layouts=layouts,
             mean_pos={k: np.mean(v, axis=0) for k, v in positions.items()},
-            workspace=raw.workspace_name, workspace_offset=np.asarray(raw.workspace_offset, dtype=float),
+            workspace=raw.workspace_name,
+            workspace_offset=np.asarray(raw.workspace_offset, dtype=float),
             object_classes={**raw.objects_dict, **raw.fixtures_dict},
             site_joints=_site_joints(env),
-            fixture_z=float(raw.workspace_offset[2] + getattr(raw, "z_offset", 0.0)), surface_z=surface,
+            fixture_z=float(raw.workspace_offset[2] + getattr(raw, "z_offset", 0.0)),
+            surface_z=surface,
             camera=_camera(env, "agentview"),
-            ray_scene=_ray_scene(env), gripper_xy=np.mean(grippers, axis=0),
+            ray_scene=_ray_scene(env),
+            gripper_xy=np.mean(grippers, axis=0),
         )
     finally:
         env.close()
@@ -115,6 +124,7 @@ def _sound_rows(env, rows: np.ndarray, count: int, task_key: str) -> list[int]:
     unsound (an object falls off the table within one second of zero actions: libero_10-00 row 2
     drops the cream cheese on the floor), which is replaced by the next sound row after the first
     `count` (in order), so a scene variant never inherits a defect of the base task's state."""
+
     def sound(k: int) -> bool:
         sim.load_state(env, rows[k])
         sim.settle(env)
@@ -147,8 +157,11 @@ def _site_joints(env) -> dict[str, list[str]]:
             out[name] = joints
     for name, fixture in raw.fixtures_dict.items():
         root = raw.sim.model.body_name2id(fixture.root_body)
-        joints = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)
-                  if int(m.body_rootid[m.jnt_bodyid[j]]) == root]
+        joints = [
+            mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+            for j in range(m.njnt)
+            if int(m.body_rootid[m.jnt_bodyid[j]]) == root
+        ]
         if joints:
             out[name] = joints
     return out
@@ -157,8 +170,11 @@ def _site_joints(env) -> dict[str, list[str]]:
 def _camera(env, name: str) -> tuple:
     raw = sim.raw(env)
     cid = raw.sim.model.camera_name2id(name)
-    return (np.array(raw.sim.data.cam_xpos[cid]), np.array(raw.sim.data.cam_xmat[cid]).reshape(3, 3),
-            float(raw.sim.model.cam_fovy[cid]))
+    return (
+        np.array(raw.sim.data.cam_xpos[cid]),
+        np.array(raw.sim.data.cam_xmat[cid]).reshape(3, 3),
+        float(raw.sim.model.cam_fovy[cid]),
+    )
 
 
 def _ray_scene(env) -> tuple:

@@ -5,6 +5,7 @@ The base task's text is reused verbatim where the variant does not change it (la
 region blocks, init predicates), so the written BDDL keeps the task's language and goal by
 construction, and `check_variant` proves it with LIBERO's parser.
 """
+
 from __future__ import annotations
 
 import re
@@ -111,7 +112,7 @@ def read_base(path: Path | str) -> BaseBDDL:
         problem = sections["problem"][1:-1].split()[1]
         language = sections[":language"][1:-1].split(None, 1)[1].strip()
         goal_block = sections[":goal"]
-        goal = goal_block[goal_block.index("(", 1):goal_block.rindex(")")].strip()
+        goal = goal_block[goal_block.index("(", 1) : goal_block.rindex(")")].strip()
     except (KeyError, IndexError, ValueError) as exc:
         raise BDDLError(f"{path}: not a LIBERO BDDL problem (missing section {exc})") from None
     regions = _inner_groups(sections.get(":regions", "()"))
@@ -141,8 +142,10 @@ def _fill(template: string.Template, values: dict, case_id: str, name: str) -> s
     try:
         return template.substitute(values)
     except KeyError as exc:
-        raise BDDLError(f"case {case_id}: template {name} needs field {exc.args[0]!r}, which the generator "
-                        f"does not provide (provided: {', '.join(sorted(values))})") from None
+        raise BDDLError(
+            f"case {case_id}: template {name} needs field {exc.args[0]!r}, which the generator "
+            f"does not provide (provided: {', '.join(sorted(values))})"
+        ) from None
     except ValueError as exc:
         raise BDDLError(f"case {case_id}: template {name} is malformed ({exc})") from None
 
@@ -156,9 +159,21 @@ def region_block(region: Region, case_id: str, template_dir: Path | None = None)
     if x1 < x0 or y1 < y0:
         raise BDDLError(f"case {case_id}: region {region.name} has inverted ranges {region.ranges}")
     yaw = region.yaw or (0.0, 0.0)
-    text = _fill(_template(REGION_TEMPLATE, case_id, template_dir),
-                 {"name": region.name, "target": region.target, "x0": _num(x0), "y0": _num(y0), "x1": _num(x1),
-                  "y1": _num(y1), "yaw0": _num(yaw[0]), "yaw1": _num(yaw[1])}, case_id, REGION_TEMPLATE)
+    text = _fill(
+        _template(REGION_TEMPLATE, case_id, template_dir),
+        {
+            "name": region.name,
+            "target": region.target,
+            "x0": _num(x0),
+            "y0": _num(y0),
+            "x1": _num(x1),
+            "y1": _num(y1),
+            "yaw0": _num(yaw[0]),
+            "yaw1": _num(yaw[1]),
+        },
+        case_id,
+        REGION_TEMPLATE,
+    )
     if region.yaw is None:  # drop the yaw block: LIBERO then uses its default (no rotation)
         text = re.sub(r"\n\s*\(:yaw_rotation \(\n.*?\n\s*\)\n\s*\)", "", text, flags=re.S)
     return text.rstrip("\n")
@@ -171,17 +186,29 @@ def _typed_lines(pairs: list[tuple[str, str]]) -> str:
     return "\n".join(f"    {' '.join(insts)} - {cat}" for cat, insts in grouped.items())
 
 
-def render_variant(base: BaseBDDL, *, case_id: str, generator: str, base_task: str, summary: str,
-                   objects: list[tuple[str, str]], fixtures: list[tuple[str, str]], regions: list[Region],
-                   init: list[str], template_dir: Path | None = None) -> str:
+def render_variant(
+    base: BaseBDDL,
+    *,
+    case_id: str,
+    generator: str,
+    base_task: str,
+    summary: str,
+    objects: list[tuple[str, str]],
+    fixtures: list[tuple[str, str]],
+    regions: list[Region],
+    init: list[str],
+    template_dir: Path | None = None,
+) -> str:
     """Fill the scene template. `objects`, `fixtures`, `init` are the variant's full lists;
     added regions are appended after the base task's own region blocks."""
     template = _template(SCENE_TEMPLATE, case_id, template_dir)
     present = {m.group("named") or m.group("braced") for m in template.pattern.finditer(template.template)}
     missing = [f for f in REQUIRED_FIELDS if f not in present]
     if missing:
-        raise BDDLError(f"case {case_id}: template {SCENE_TEMPLATE} lacks field(s) {', '.join(missing)}; "
-                        "the written BDDL would drop part of the task")
+        raise BDDLError(
+            f"case {case_id}: template {SCENE_TEMPLATE} lacks field(s) {', '.join(missing)}; "
+            "the written BDDL would drop part of the task"
+        )
     values = {
         "case_id": case_id,
         "generator": generator,
@@ -207,7 +234,9 @@ def parse_text(text: str, case_id: str) -> dict:
         try:
             return libero_bridge.bddl_parser().robosuite_parse_problem(handle.name)
         except Exception as exc:  # LIBERO's parser raises bare Exceptions and asserts
-            raise BDDLError(f"case {case_id}: LIBERO's parser rejects the written BDDL ({type(exc).__name__}: {exc})") from None
+            raise BDDLError(
+                f"case {case_id}: LIBERO's parser rejects the written BDDL ({type(exc).__name__}: {exc})"
+            ) from None
 
 
 def check_variant(text: str, base: BaseBDDL, case_id: str) -> dict:
@@ -215,6 +244,7 @@ def check_variant(text: str, base: BaseBDDL, case_id: str) -> dict:
     parsed = parse_text(text, case_id)
     for key in ("language_instruction", "goal_state", "problem_name", "obj_of_interest"):
         if parsed[key] != base.parsed[key]:
-            raise BDDLError(f"case {case_id}: the written BDDL changes the task's {key}: "
-                            f"{base.parsed[key]!r} -> {parsed[key]!r}")
+            raise BDDLError(
+                f"case {case_id}: the written BDDL changes the task's {key}: {base.parsed[key]!r} -> {parsed[key]!r}"
+            )
     return parsed

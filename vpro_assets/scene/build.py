@@ -15,6 +15,7 @@ the base task's BDDL and initial states, the pool table, the toolkit's build ver
 versions). Each case is written to a temporary directory and renamed into place, so an
 interrupted build leaves whole cases or none; a rerun resumes with the cases still missing.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -64,7 +65,8 @@ def input_hash(case: dict, generator: plugins.Generator) -> str:
     task = get_task(case["task"])
     h = hashlib.sha256()
     for part in (
-        f"build-v{BUILD_VERSION}", f"{generator.name}-v{generator.version}",
+        f"build-v{BUILD_VERSION}",
+        f"{generator.name}-v{generator.version}",
         canonical_json({k: case[k] for k in ("id", "setting", "params", "trial_seeds", "task")}),
         libero_bridge.bddl_path(task.suite, task.name).read_bytes().hex(),
         libero_bridge.init_state_path(task.suite, task.name).read_bytes().hex(),
@@ -150,17 +152,31 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
 
     t = time.perf_counter()
     text = bddl_doc.render_variant(
-        base.bddl, case_id=cid, generator=f"{generator.name}-v{generator.version}", base_task=case["task"],
-        summary=variant.summary, objects=variant.objects, fixtures=variant.fixtures, regions=variant.regions,
-        init=variant.init)
+        base.bddl,
+        case_id=cid,
+        generator=f"{generator.name}-v{generator.version}",
+        base_task=case["task"],
+        summary=variant.summary,
+        objects=variant.objects,
+        fixtures=variant.fixtures,
+        regions=variant.regions,
+        init=variant.init,
+    )
     bddl_doc.check_variant(text, base.bddl, cid)
     stages["bddl"] = time.perf_counter() - t
     hashes = _write_case(case, key, generator, base, variant, text, stages)
     return CaseResult(cid, "built", time.perf_counter() - started, stages, files=hashes)
 
 
-def _write_case(case: dict, key: str, generator: plugins.Generator, base: BaseScene, variant: SceneVariant,
-                text: str, stages: dict[str, float]) -> dict[str, str]:
+def _write_case(
+    case: dict,
+    key: str,
+    generator: plugins.Generator,
+    base: BaseScene,
+    variant: SceneVariant,
+    text: str,
+    stages: dict[str, float],
+) -> dict[str, str]:
     """Settle the trials' initial states in LIBERO's env of the variant and publish the case's
     files (BDDL, initial states, meta.json) at once; return {file name: sha256}."""
     cid = case["id"]
@@ -175,9 +191,12 @@ def _write_case(case: dict, key: str, generator: plugins.Generator, base: BaseSc
         stages["variant_env"] = time.perf_counter() - t
         t = time.perf_counter()
         try:
-            rows = [trial_state(env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k],
-                                fixture_seed=seed)
-                    for k, seed in enumerate(case["trial_seeds"])]
+            rows = [
+                trial_state(
+                    env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k], fixture_seed=seed
+                )
+                for k, seed in enumerate(case["trial_seeds"])
+            ]
         finally:
             env.close()
         stages["settle"] = time.perf_counter() - t
@@ -191,13 +210,21 @@ def _write_case(case: dict, key: str, generator: plugins.Generator, base: BaseSc
             (tmp / name).write_bytes(data)
         hashes = {name: sha256_bytes(data) for name, data in files.items()}
         meta = {
-            "case": cid, "input_hash": key, "generator": generator.name, "generator_version": generator.version,
-            "build_version": BUILD_VERSION, "summary": variant.summary, "details": dict(variant.details),
+            "case": cid,
+            "input_hash": key,
+            "generator": generator.name,
+            "generator_version": generator.version,
+            "build_version": BUILD_VERSION,
+            "summary": variant.summary,
+            "details": dict(variant.details),
             "added": list(variant.added),
             "generated_objects": {o.name: {"template": o.template} for o in variant.generated_objects},
-            "init_states": {"rows": len(rows), "width": int(states.shape[1]),
-                            # trial k starts from LIBERO's row k; listed only where one was replaced
-                            **({"libero_rows": base.trial_rows} if base.trial_rows != list(range(len(rows))) else {})},
+            "init_states": {
+                "rows": len(rows),
+                "width": int(states.shape[1]),
+                # trial k starts from LIBERO's row k; listed only where one was replaced
+                **({"libero_rows": base.trial_rows} if base.trial_rows != list(range(len(rows))) else {}),
+            },
             "files": hashes,
         }
         (tmp / paths.SCENE_META).write_text(canonical_json(meta))
@@ -296,5 +323,4 @@ def built_case(case_id: str) -> dict:
         register_mjcf_object(name, paths.objects_root() / name / f"{name}.xml", template=info.get("template"))
     bddl = next(p for p in meta["files"] if p.endswith(".bddl"))
     init = next(p for p in meta["files"] if p.endswith(".pruned_init"))
-    return {"dir": d, "bddl": d / bddl, "init_states": d / init, "init_states_npz": d / "init_states.npz",
-            "meta": meta}
+    return {"dir": d, "bddl": d / bddl, "init_states": d / init, "init_states_npz": d / "init_states.npz", "meta": meta}

@@ -1,5 +1,6 @@
 """What a generator gets: the case, its task, the measured base scene, and shared placement rules
 (free spots near the target, instance naming, the destination of the task's goal)."""
+
 from __future__ import annotations
 
 import math
@@ -12,7 +13,18 @@ from vpro_assets.scene import pool as pool_mod
 from vpro_assets.scene.base_scene import BaseScene
 from vpro_assets.scene.bddl_doc import Region
 
-SPOT_RADII = (0.14, 0.18, 0.22, 0.26, 0.30, 0.34, 0.38, 0.42, 0.46, 0.50)  # m from the target's familiar position, nearest first
+SPOT_RADII = (
+    0.14,
+    0.18,
+    0.22,
+    0.26,
+    0.30,
+    0.34,
+    0.38,
+    0.42,
+    0.46,
+    0.50,
+)  # m from the target's familiar position, nearest first
 SPOT_ANGLES = 24
 SPOT_CLEARANCE = 0.02  # m between a new object's disc and every other footprint, in every trial row
 BOUNDS_PAD = 0.15  # m: new objects stay within the box of the scene's objects and fixtures, grown by this
@@ -43,8 +55,9 @@ class GenContext:
             n += 1
         return f"{category}_{n}"
 
-    def init_with(self, replace: dict[str, str] | None = None, add: list[str] | None = None,
-                  drop: tuple[str, ...] = ()) -> list[str]:
+    def init_with(
+        self, replace: dict[str, str] | None = None, add: list[str] | None = None, drop: tuple[str, ...] = ()
+    ) -> list[str]:
         """The base init predicates; `replace` maps an old predicate to a new one."""
         out = []
         for p in self.base.bddl.init:
@@ -94,8 +107,9 @@ class GenContext:
                 worst = min(worst, math.hypot(dx, dy) - radius)
         return worst
 
-    def free_spot(self, around: np.ndarray, radius: float, ignore: tuple[str, ...] = (),
-                  radii: tuple[float, ...] = SPOT_RADII) -> np.ndarray:
+    def free_spot(
+        self, around: np.ndarray, radius: float, ignore: tuple[str, ...] = (), radii: tuple[float, ...] = SPOT_RADII
+    ) -> np.ndarray:
         """The rule for a new object's nominal spot: on the nearest ring around `around` that has
         a spot clear of every footprint by SPOT_CLEARANCE in every trial row, inside the scene's
         bounds and inside the central 85% of the agentview image, the spot of that ring with the
@@ -113,13 +127,18 @@ class GenContext:
                     best, best_gap = xy, gap
             if best is not None:
                 return np.round(best, 4)
-        raise self.fail(f"no free spot within {radii[-1]:.2f} m of ({around[0]:.3f}, {around[1]:.3f}) "
-                        f"for an object of radius {radius:.3f} m")
+        raise self.fail(
+            f"no free spot within {radii[-1]:.2f} m of ({around[0]:.3f}, {around[1]:.3f}) "
+            f"for an object of radius {radius:.3f} m"
+        )
 
     def region_at(self, name: str, xy: np.ndarray, half: float = REGION_HALF) -> Region:
         cx, cy = self.base.to_region_xy(xy)
-        return Region(name, self.base.workspace, (round(cx - half, 4), round(cy - half, 4),
-                                                  round(cx + half, 4), round(cy + half, 4)))
+        return Region(
+            name,
+            self.base.workspace,
+            (round(cx - half, 4), round(cy - half, 4), round(cx + half, 4), round(cy + half, 4)),
+        )
 
     def pool_object(self, name: str) -> pool_mod.PoolObject:
         return pool_mod.get(name, self.case_id)

@@ -1,4 +1,5 @@
 """A gallery of every built scene variant of a task: one labelled contact sheet (PNG)."""
+
 from __future__ import annotations
 
 import math
@@ -41,7 +42,9 @@ def write_gallery(catalog: dict, task_key: str, out: Path, resolution: int = 256
         return 0
     rows = math.ceil(len(panels) / columns)
     blank = np.zeros_like(panels[0])
-    grid = [np.concatenate((panels + [blank] * (rows * columns - len(panels)))[r * columns:(r + 1) * columns], axis=1)
-            for r in range(rows)]
+    grid = [
+        np.concatenate((panels + [blank] * (rows * columns - len(panels)))[r * columns : (r + 1) * columns], axis=1)
+        for r in range(rows)
+    ]
     write_png(out, np.concatenate(grid, axis=0))
     return len(panels) - 1

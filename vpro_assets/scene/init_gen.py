@@ -19,6 +19,7 @@ still moves, e.g. a deformed target rocking on an uneven base). The state is acc
 A rejected draw is redrawn (next attempt) up to MAX_ATTEMPTS times; then InitStateError names the
 case, the trial and the reasons.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -62,8 +63,14 @@ def _clear(xy: np.ndarray, radius: float, others: list[tuple[np.ndarray, np.ndar
     return True
 
 
-def _ring_spot(p, anchor: np.ndarray, rng: np.random.Generator, offset: np.ndarray, radius: float,
-               others: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+def _ring_spot(
+    p,
+    anchor: np.ndarray,
+    rng: np.random.Generator,
+    offset: np.ndarray,
+    radius: float,
+    others: list[tuple[np.ndarray, np.ndarray]],
+) -> np.ndarray:
     """An origin xy on a ring around `anchor` whose footprint centre (origin + `offset`: the
     origin need not be the centre) is clear of `others`. The ring widens by 1 cm every 20 draws
     when the trial's own layout crowds the spot."""
@@ -73,8 +80,10 @@ def _ring_spot(p, anchor: np.ndarray, rng: np.random.Generator, offset: np.ndarr
         xy = anchor + r * np.array([math.cos(theta), math.sin(theta)])
         if _clear(xy + offset, radius, others, p.margin):
             return xy
-    raise InitStateError(f"no free spot for {p.instance} within {p.r_max + 0.01 * (MAX_DRAWS // 20):.2f} m of "
-                         f"({anchor[0]:.3f}, {anchor[1]:.3f})")
+    raise InitStateError(
+        f"no free spot for {p.instance} within {p.r_max + 0.01 * (MAX_DRAWS // 20):.2f} m of "
+        f"({anchor[0]:.3f}, {anchor[1]:.3f})"
+    )
 
 
 def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str], base_layout: dict) -> None:
@@ -108,8 +117,11 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
             if p.clear_of_neighbours and p.instance in base_layout:
                 # What it stands on (a ramekin, a drawer, a rack) does not count: it stays there.
                 floor = base_layout[p.instance]["lo"][2] + SUPPORT_TOL
-                neighbours = [(v["lo"], v["hi"]) for v in others.values() if v["hi"][2] > floor
-                              and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))]
+                neighbours = [
+                    (v["lo"], v["hi"])
+                    for v in others.values()
+                    if v["hi"][2] > floor and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))
+                ]
                 if not _clear(centre, radius, neighbours, p.margin):
                     # No room nearby in a crowded layout: LIBERO's spot, if it settles.
                     with contextlib.suppress(InitStateError):
@@ -118,8 +130,9 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
             was = base_layout[p.take_place_of]
             xy = (was["lo"][:2] + was["hi"][:2]) / 2 - offset  # footprint centre on the other's
         else:
-            xy = _ring_spot(p, np.asarray(p.anchor, dtype=float), rng, offset, radius,
-                            [(v["lo"], v["hi"]) for v in others.values()])
+            xy = _ring_spot(
+                p, np.asarray(p.anchor, dtype=float), rng, offset, radius, [(v["lo"], v["hi"]) for v in others.values()]
+            )
         qpos[:2] = xy
         data.set_joint_qpos(joint, qpos)
         raw.sim.forward()
@@ -142,8 +155,11 @@ def _problems(env, success: bool) -> list[str]:
     layout = sim.body_layout(env)
     lows = {n: v["lo"][2] for n, v in layout.items() if v["kind"] == "object"}
     surface = float(np.median(list(lows.values())))
-    out += [f"{n} left the table (its lowest point is {surface - z:.3f} m below the surface)"
-            for n, z in lows.items() if z < surface - sim.DROP_TOL]
+    out += [
+        f"{n} left the table (its lowest point is {surface - z:.3f} m below the surface)"
+        for n, z in lows.items()
+        if z < surface - sim.DROP_TOL
+    ]
     out += [f"{n} still moving ({lin:.3f} m/s, {ang:.2f} rad/s)" for n, lin, ang in sim.moving_objects(env)]
     out += [f"{a} and {b} interpenetrate by {d * 1000:.1f} mm" for a, b, d in sim.penetrations(env)]
     if success:
@@ -156,14 +172,24 @@ def drift(env, steps: int = sim.SETTLE_STEPS) -> list[str]:
     before = sim.free_object_state(env)
     sim.settle(env, steps)
     after = sim.free_object_state(env)
-    out = [f"{n} moved {np.linalg.norm(after[n][0][:3] - q[:3]) * 1000:.1f} mm"
-           for n, (q, _) in before.items() if np.linalg.norm(after[n][0][:3] - q[:3]) > sim.DRIFT_TOL]
+    out = [
+        f"{n} moved {np.linalg.norm(after[n][0][:3] - q[:3]) * 1000:.1f} mm"
+        for n, (q, _) in before.items()
+        if np.linalg.norm(after[n][0][:3] - q[:3]) > sim.DRIFT_TOL
+    ]
     out += [f"{n} still moving ({lin:.3f} m/s)" for n, lin, _ in sim.moving_objects(env)]
     return out
 
 
-def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: dict, trial: int,
-                base_layout: dict | None = None, fixture_seed: int = 0) -> np.ndarray:
+def trial_state(
+    env,
+    variant: SceneVariant,
+    base_row: np.ndarray,
+    base_slots: dict,
+    trial: int,
+    base_layout: dict | None = None,
+    fixture_seed: int = 0,
+) -> np.ndarray:
     """One accepted, settled initial state (a LIBERO state row) for `trial` of the case.
     `base_layout`: instance -> {lo, hi} of its geometry in LIBERO's state of this trial;
     `fixture_seed`: the trial's seed, which places the fixtures as the rollout will."""
@@ -198,5 +224,7 @@ def trial_state(env, variant: SceneVariant, base_row: np.ndarray, base_slots: di
             if not problems:
                 return state
         reasons.append(f"attempt {attempt}: " + "; ".join(problems[:4]))
-    raise InitStateError(f"case {variant.case_id}: trial {trial} has no initial state that settles after "
-                         f"{MAX_ATTEMPTS} attempts ({' | '.join(reasons[-3:])})")
+    raise InitStateError(
+        f"case {variant.case_id}: trial {trial} has no initial state that settles after "
+        f"{MAX_ATTEMPTS} attempts ({' | '.join(reasons[-3:])})"
+    )

@@ -8,6 +8,7 @@ imports go one way. The registry refuses a second generator under a name already
 generator's `version` is part of every artifact's input hash: changing what a generator does means
 bumping it.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -17,8 +18,12 @@ from dataclasses import dataclass
 from vpro_assets.core.errors import GeneratorError
 
 # Plug-in modules loaded on first use, each registering its generators.
-FAMILY_MODULES = ("generators.distractors", "generators.precondition", "generators.ambiguity",
-                  "generators.geometry_scene")
+FAMILY_MODULES = (
+    "generators.distractors",
+    "generators.precondition",
+    "generators.ambiguity",
+    "generators.geometry_scene",
+)
 
 
 @dataclass(frozen=True)
@@ -37,8 +42,10 @@ def register(name: str, version: int = 1) -> Callable[[Callable], Callable]:
 
     def wrap(fn: Callable) -> Callable:
         if name in _REGISTRY:
-            raise GeneratorError(f"generator {name!r} is already registered by {_REGISTRY[name].fn.__module__}; "
-                                 f"refusing a second one from {fn.__module__}")
+            raise GeneratorError(
+                f"generator {name!r} is already registered by {_REGISTRY[name].fn.__module__}; "
+                f"refusing a second one from {fn.__module__}"
+            )
         _REGISTRY[name] = Generator(name, version, fn, " ".join((fn.__doc__ or "").split()))
         return fn
 
@@ -61,6 +68,7 @@ def generator_for(case: dict) -> Generator:
     setting = case["setting"].removeprefix("vpro/")
     name = setting.rsplit("-v", 1)[0]
     if name not in _REGISTRY:
-        raise GeneratorError(f"case {case['id']}: no generator registered for {name!r} "
-                             f"(known: {', '.join(sorted(_REGISTRY))})")
+        raise GeneratorError(
+            f"case {case['id']}: no generator registered for {name!r} (known: {', '.join(sorted(_REGISTRY))})"
+        )
     return _REGISTRY[name]

@@ -9,6 +9,7 @@ their BDDL files, not listed by hand). Each entry has:
   `footprint`/`height`: its extents as LIBERO places it (its class rotation, middle of the range);
 - `color`: its dominant colour (mean texel under the mesh's texture coordinates).
 """
+
 from __future__ import annotations
 
 import functools
@@ -81,9 +82,16 @@ class PoolObject:
         return 0.55 * float(max(self.footprint))
 
     def to_json(self) -> dict:
-        return {"name": self.name, "category": self.category, "family": self.family, "grasp": self.grasp,
-                "extents": [round(x, 5) for x in self.extents], "color": list(self.color),
-                "footprint": [round(x, 5) for x in self.footprint], "height": round(self.height, 5)}
+        return {
+            "name": self.name,
+            "category": self.category,
+            "family": self.family,
+            "grasp": self.grasp,
+            "extents": [round(x, 5) for x in self.extents],
+            "color": list(self.color),
+            "footprint": [round(x, 5) for x in self.footprint],
+            "height": round(self.height, 5),
+        }
 
 
 def movable_categories() -> list[str]:
@@ -96,8 +104,9 @@ def movable_categories() -> list[str]:
     return sorted(cats)
 
 
-def measure_mjcf(path: str, quat: np.ndarray | None = None) -> tuple[tuple[float, float, float], tuple[int, int, int],
-                                                                  np.ndarray]:
+def measure_mjcf(
+    path: str, quat: np.ndarray | None = None
+) -> tuple[tuple[float, float, float], tuple[int, int, int], np.ndarray]:
     """Sorted bounding-box extents, dominant colour, and the (x, y, z) extents of the object
     turned by `quat` (w, x, y, z), e.g. LIBERO's placement rotation of its class."""
     model = mujoco.MjModel.from_xml_path(path)
@@ -127,9 +136,9 @@ def dominant_color(model) -> tuple[int, int, int]:
         if tex >= 0 and mesh >= 0 and model.mesh_texcoordnum[mesh] > 0:
             # Texels under the mesh's own texture coordinates (an atlas has unused padding).
             adr, w, h, nc = model.tex_adr[tex], model.tex_width[tex], model.tex_height[tex], model.tex_nchannel[tex]
-            image = model.tex_data[adr:adr + w * h * nc].reshape(h, w, nc)[..., :3]
+            image = model.tex_data[adr : adr + w * h * nc].reshape(h, w, nc)[..., :3]
             a, n = model.mesh_texcoordadr[mesh], model.mesh_texcoordnum[mesh]
-            uv = model.mesh_texcoord[a:a + n]
+            uv = model.mesh_texcoord[a : a + n]
             cols = np.clip((uv[:, 0] % 1.0) * w, 0, w - 1).astype(int)
             rows = np.clip((uv[:, 1] % 1.0) * h, 0, h - 1).astype(int)
             samples.append(image[rows, cols])
@@ -154,13 +163,20 @@ def pool() -> dict[str, PoolObject]:
     out = {}
     for name in movable_categories():
         if name not in SEMANTICS:
-            raise VProError(f"LIBERO object {name!r} has no entry in the distractor pool's semantic table "
-                            "(vpro_assets/scene/pool.py SEMANTICS)")
+            raise VProError(
+                f"LIBERO object {name!r} has no entry in the distractor pool's semantic table "
+                "(vpro_assets/scene/pool.py SEMANTICS)"
+            )
         probe = libero_bridge.libero_envs().OBJECTS_DICT[name](name=f"vpro_probe_{name}")
         extents, color, placed = measure_mjcf(probe.file, class_quat(probe))
-        out[name] = PoolObject(name, *SEMANTICS[name], extents=extents, color=color,
-                               footprint=(round(float(placed[0]), 5), round(float(placed[1]), 5)),
-                               height=round(float(placed[2]), 5))
+        out[name] = PoolObject(
+            name,
+            *SEMANTICS[name],
+            extents=extents,
+            color=color,
+            footprint=(round(float(placed[0]), 5), round(float(placed[1]), 5)),
+            height=round(float(placed[2]), 5),
+        )
     return out
 
 

@@ -1,5 +1,6 @@
 """Orientations as LIBERO gives them: quaternions (w, x, y, z) and a class's placement rotation.
 The quaternion maths is mujoco's (`vpro_assets.core.mjgeom`)."""
+
 from __future__ import annotations
 
 import math

@@ -4,6 +4,7 @@ The copy keeps the source object's meshes, collision geometry, sites and mass; e
 loses its texture and takes one flat colour. Files referenced by the source MJCF are copied next
 to the new XML (same relative paths), so the object directory is self-contained.
 """
+
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET

@@ -2,6 +2,7 @@
 scene (where every object and fixture sits, its footprint), mapping a LIBERO state row between
 models by joint name, and the rest/penetration/table checks used to accept initial states.
 """
+
 from __future__ import annotations
 
 import logging
@@ -30,8 +31,9 @@ def physics_env(bddl_file: str):
     from libero.libero.envs.env_wrapper import ControlEnv
 
     # ignore_done: building steps one env through many trials, past LIBERO's 1000-step horizon.
-    env = ControlEnv(bddl_file_name=str(bddl_file), use_camera_obs=False, has_offscreen_renderer=False,
-                     ignore_done=True)
+    env = ControlEnv(
+        bddl_file_name=str(bddl_file), use_camera_obs=False, has_offscreen_renderer=False, ignore_done=True
+    )
     env.reset()
     return env
 
@@ -78,7 +80,7 @@ def map_state(row: np.ndarray, src: dict[str, JointSlot], dst_env) -> np.ndarray
     m = raw(dst_env).sim.model._model
     nq_src = sum(s.qpos.stop - s.qpos.start for s in src.values())
     qpos, qvel = m.qpos0.copy(), np.zeros(m.nv)
-    src_q, src_v = row[1:1 + nq_src], row[1 + nq_src:]
+    src_q, src_v = row[1 : 1 + nq_src], row[1 + nq_src :]
     for name, slot in joint_slots(dst_env).items():
         if name in src:
             qpos[slot.qpos] = src_q[src[name].qpos]
@@ -136,8 +138,9 @@ def penetrations(env, tol: float = PENETRATION_TOL) -> list[tuple[str, str, floa
     """Contacts deeper than `tol` between bodies of the scene (the robot excluded)."""
     m = raw(env).sim.model._model
     d = raw(env).sim.data._data
-    robot_roots = {int(m.body_rootid[raw(env).sim.model.body_name2id(r.robot_model.root_body)])
-                   for r in raw(env).robots}
+    robot_roots = {
+        int(m.body_rootid[raw(env).sim.model.body_name2id(r.robot_model.root_body)]) for r in raw(env).robots
+    }
     out = []
     for i in range(d.ncon):
         c = d.contact[i]
@@ -146,8 +149,13 @@ def penetrations(env, tol: float = PENETRATION_TOL) -> list[tuple[str, str, floa
         b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
         if int(m.body_rootid[b1]) in robot_roots or int(m.body_rootid[b2]) in robot_roots:
             continue
-        out.append((mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b1) or str(b1),
-                    mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b2) or str(b2), float(-c.dist)))
+        out.append(
+            (
+                mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b1) or str(b1),
+                mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b2) or str(b2),
+                float(-c.dist),
+            )
+        )
     return out
 
 
@@ -168,5 +176,8 @@ def load_state(env, row: np.ndarray) -> None:
 
 def mujoco_warnings(env) -> list[str]:
     d = raw(env).sim.data._data
-    return [f"{mujoco.mjtWarning(i).name}: {int(d.warning[i].number)} time(s)"
-            for i in range(len(d.warning)) if d.warning[i].number > 0]
+    return [
+        f"{mujoco.mjtWarning(i).name}: {int(d.warning[i].number)} time(s)"
+        for i in range(len(d.warning))
+        if d.warning[i].number > 0
+    ]

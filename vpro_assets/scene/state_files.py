@@ -6,6 +6,7 @@
   torch: stored (uncompressed) members with a fixed timestamp, protocol-2 pickle like torch's.
 - `.npz`: `states` (rows of time, qpos, qvel), written with fixed member timestamps.
 """
+
 from __future__ import annotations
 
 import io

@@ -6,6 +6,7 @@ generated object's MJCF compiles alone; LIBERO builds the env from the BDDL; the
 the model's width and loads; visual-only additions have no geom that can collide; and one second of zero actions from each leaves every object at rest
 (moved less than 1 cm, slower than 2 cm/s) with no MuJoCo warning raised while stepping.
 """
+
 from __future__ import annotations
 
 import logging
@@ -99,8 +100,11 @@ def _model_problems(env, meta: dict) -> list[str]:
         if fixture is None:
             continue  # an added movable object (a distractor)
         root = sim.raw(env).sim.model.body_name2id(fixture.root_body)
-        touching = [g for g in range(m.ngeom) if int(m.body_rootid[m.geom_bodyid[g]]) == root
-                    and (m.geom_contype[g] or m.geom_conaffinity[g])]
+        touching = [
+            g
+            for g in range(m.ngeom)
+            if int(m.body_rootid[m.geom_bodyid[g]]) == root and (m.geom_contype[g] or m.geom_conaffinity[g])
+        ]
         if touching:
             problems.append(f"visual-only {instance} has {len(touching)} geom(s) that can collide")
     return problems

@@ -7,6 +7,7 @@ placed by a stated rule, a pose flipped, an articulation set to its other state)
 file writing happen elsewhere (`init_gen`, `build`), so a generator is a pure function of its
 inputs and can be unit-tested without MuJoCo.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping

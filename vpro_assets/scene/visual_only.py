@@ -5,6 +5,7 @@ collides, and marks what is left `contype=0 conaffinity=0 group=1`; it is placed
 joint, so it never moves) in the pose given (e.g. upside down). Its placement sites are
 recomputed for that pose so LIBERO's fixture sampler puts its lowest point on the table.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -118,17 +119,24 @@ def write_ghost(source: str, name: str, quat, sink: float, directory: Path) -> P
     turned.set("pos", f"{-centre[0]:.6f} {-centre[1]:.6f} 0")
     lo, hi = _extent(ET.tostring(root, encoding="unicode"), directory)
     radius = float(np.max(np.abs(np.concatenate([lo[:2], hi[:2]]))))
-    for site_name, pos in (("bottom_site", (0.0, 0.0, lo[2] - sink)), ("top_site", (0.0, 0.0, hi[2])),
-                           ("horizontal_radius_site", (radius, radius, 0.0))):
-        ET.SubElement(outer, "site", {"name": site_name, "pos": " ".join(f"{v:.5f}" for v in pos),
-                                      "size": "0.005", "rgba": "0 0 0 0"})
+    for site_name, pos in (
+        ("bottom_site", (0.0, 0.0, lo[2] - sink)),
+        ("top_site", (0.0, 0.0, hi[2])),
+        ("horizontal_radius_site", (radius, radius, 0.0)),
+    ):
+        ET.SubElement(
+            outer,
+            "site",
+            {"name": site_name, "pos": " ".join(f"{v:.5f}" for v in pos), "size": "0.005", "rgba": "0 0 0 0"},
+        )
     return write_object_xml(root, name, directory)
 
 
 def ghost_object(source: str, label: str, quat, sink: float) -> GeneratedObject:
     name = ghost_name(source, label, quat, sink)
-    return GeneratedObject(name=name, write=lambda directory: write_ghost(source, name, quat, sink, directory),
-                           template=None)
+    return GeneratedObject(
+        name=name, write=lambda directory: write_ghost(source, name, quat, sink, directory), template=None
+    )
 
 
 def _rotate_about(body: ET.Element, joint: ET.Element, angle: float) -> None:
@@ -172,6 +180,8 @@ def write_articulation_ghost(source: str, name: str, joint_name: str, value: flo
 def articulation_ghost(source: str, joint_name: str, value: float, label: str) -> GeneratedObject:
     key = hashlib.sha256(f"v2|{source}|{joint_name}|{value:.6f}".encode()).hexdigest()[:8]
     name = f"vpro_ghost_{source}_{label}_{key}"
-    return GeneratedObject(name=name,
-                           write=lambda directory: write_articulation_ghost(source, name, joint_name, value, directory),
-                           template=None)
+    return GeneratedObject(
+        name=name,
+        write=lambda directory: write_articulation_ghost(source, name, joint_name, value, directory),
+        template=None,
+    )
