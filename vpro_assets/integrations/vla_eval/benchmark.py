@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,7 +47,7 @@ from vpro_assets.benchmark.catalog import library_versions, load_catalog  # noqa
 from vpro_assets.benchmark.selection import select_cases  # noqa: E402
 from vpro_assets.core import paths  # noqa: E402
 from vpro_assets.libero.env import CAMERAS  # noqa: E402
-from vpro_assets.rollout.case_env import CaseUnavailableError, check_available, release_cached_envs  # noqa: E402
+from vpro_assets.rollout.case_env import CaseEnv, CaseUnavailableError, check_available, release_cached_envs  # noqa: E402
 from vpro_assets.rollout.episode import WAIT_STEPS, EpisodeSession, EpisodeSettings, prompt_of  # noqa: E402
 from vpro_assets.rollout.policies.base import PolicyOutputError, validate_actions  # noqa: E402
 
@@ -130,7 +131,7 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         self.predicts_frames = bool(predicts_frames)
         self.filters = _filters(select)
         try:
-            self.catalog = load_catalog(paths.catalog_path() if catalog is None else catalog)
+            self.catalog = load_catalog(paths.catalog_path() if catalog is None else Path(catalog))
             self.cases = select_cases(self.catalog, self.filters)
             for case in self.cases:  # an unbuilt scene case names its build command before any episode
                 check_available(case)
@@ -159,6 +160,18 @@ class LiberoVProBenchmark(LIBEROBenchmark):
 
     # -- episode -------------------------------------------------------------------------------
 
+    @property
+    def session(self) -> EpisodeSession:
+        """The episode in progress (vla-eval calls reset before any step)."""
+        if self._session is None or self._session.cenv is None:
+            raise VProError("LiberoVProBenchmark: no episode in progress; vla-eval calls reset(task) first")
+        return self._session
+
+    def _case_env(self) -> CaseEnv:
+        cenv = self.session.cenv
+        assert cenv is not None  # checked by `session`
+        return cenv
+
     def _close_session(self) -> None:
         if self._session is not None:
             self._session.close()
@@ -167,7 +180,7 @@ class LiberoVProBenchmark(LIBEROBenchmark):
     def _policy_obs(self, obs: dict) -> dict:
         """The raw observation with each camera image replaced by the view the policy gets (raw
         frame; a removed view black), for vla-eval's LIBERO `make_obs` to flip and package."""
-        images = self._session.policy_images(obs)
+        images = self.session.policy_images(obs)
         out = dict(obs)
         for cam in CAMERAS:
             img = images.get(cam)
@@ -188,7 +201,7 @@ class LiberoVProBenchmark(LIBEROBenchmark):
                                        "to frame-predicting policies only")
         self._session = EpisodeSession(case, trial, self.settings)
         obs = self._session.start()
-        self._env = self._session.cenv.env  # vla-eval's LIBERO reads the controller state from it
+        self._env = self._case_env().env  # vla-eval's LIBERO reads the controller state from it
         if self.absolute_action:
             for robot in self._env.robots:
                 robot.controller.use_delta = False
@@ -207,15 +220,16 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         processed = chunk[0].copy()
         processed[-1] = -1.0 if processed[-1] < 0 else 1.0  # vla-eval's LIBERO gripper convention
         if action.get("predicted_frames") is not None:
-            self._session.cenv.feed_predicted(action["predicted_frames"])
-        obs = self._session.step(processed)
+            self._case_env().feed_predicted(action["predicted_frames"])
+        session = self.session
+        obs = session.step(processed)
         policy_obs = self._policy_obs(obs)
         self._recorder.record_video(self._extract_frame(policy_obs))
-        self._recorder.record_step(reward=float(self._session.success), done=self._session.finished,
-                                   success=self._session.success, action=processed.astype(np.float32),
+        self._recorder.record_step(reward=float(session.success), done=session.finished,
+                                   success=session.success, action=processed.astype(np.float32),
                                    state=self._proprio_state(obs).astype(np.float32))
-        return StepResult(obs=policy_obs, reward=float(self._session.success), done=self._session.finished,
-                          info={"success": self._session.success})
+        return StepResult(obs=policy_obs, reward=float(session.success), done=session.finished,
+                          info={"success": session.success})
 
     def make_obs(self, raw_obs: Any, task: Task) -> Observation:
         obs = super().make_obs(raw_obs, task)
@@ -226,7 +240,7 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         return bool(step_result.done)
 
     def get_step_result(self, step_result: StepResult) -> EpisodeResult:
-        session = self._session
+        session = self.session
         result = session.result()
         result["contact_detail"] = result["contact"]
         result["contact"] = result["contact"]["composition"]

@@ -91,6 +91,8 @@ class ScriptedModelServer(PredictModelServer):
         await super().on_episode_end(result, ctx)
 
     def _write(self, episode: dict[str, Any]) -> None:
+        if self.record_dir is None:
+            return
         task, frames = episode["task"], episode["obs"]
         arrays: dict[str, np.ndarray] = {}
         for cam in frames[0]["images"]:
