@@ -19,7 +19,8 @@ from vpro_assets.core.seeding import rng
 from vpro_assets.libero.tasks import TaskRecord
 from vpro_assets.perturb.entities import EntityIndex
 from vpro_assets.perturb.phases import PhaseState
-from vpro_assets.perturb.rendering import SceneEdit, render_geom_ids
+from vpro_assets.perturb.capture import Capture, CaptureRenderer
+from vpro_assets.perturb.rendering import SceneEdit, render_context, render_geom_ids
 
 
 @dataclass(frozen=True)
@@ -35,22 +36,47 @@ class Episode:
 class MaskSource:
     """Semantic masks of one observation, rendered on demand and cached per camera.
 
-    A segmentation pass is rendered only the first time a camera's mask is asked for in a step,
-    so perturbations that are off in a step (outside their schedule) cost nothing.
+    Where the env's render of a camera was captured (`captures`, camera -> `capture.Capture`,
+    holding `captured_labels`), a mask of those labels is drawn from the capture: only the
+    entities and what can cover them, in the exact state of the frame. Otherwise (the first
+    observation of an observer-driven episode, another frame size, a label not captured) a
+    full-scene segmentation pass is rendered, the reference path. Either is rendered only the
+    first time a camera's mask is asked for in a step, so perturbations that are off in a step
+    (outside their schedule) cost nothing.
     """
 
-    def __init__(self, sim, entities: EntityIndex, shapes: Mapping[str, tuple[int, int]]):
+    def __init__(self, sim, entities: EntityIndex, shapes: Mapping[str, tuple[int, int]],
+                 captures: Mapping[str, Capture] | None = None, renderer: CaptureRenderer | None = None,
+                 captured_labels: frozenset[str] = frozenset()):
         self.sim, self.entities, self.shapes = sim, entities, shapes
+        self.captures = dict(captures or {})
+        self.renderer = renderer
+        self.captured_labels = captured_labels
         self._geom_ids: dict[str, np.ndarray] = {}
+        self._captured_ids: dict[str, np.ndarray] = {}
         self._masks: dict[tuple[str, str], np.ndarray] = {}
-        self.renders = 0
+        self.renders = 0  # passes rendered (either kind)
+        self.reference_renders = 0  # full-scene segmentation passes among them
 
     def geom_ids(self, camera: str) -> np.ndarray:
+        """Full-scene segmentation of `camera` (the reference path)."""
         if camera not in self._geom_ids:
             h, w = self.shapes[camera]
             self._geom_ids[camera] = render_geom_ids(self.sim, camera, w, h)
             self.renders += 1
+            self.reference_renders += 1
         return self._geom_ids[camera]
+
+    def _ids_for(self, camera: str, label: str) -> np.ndarray:
+        cap = self.captures.get(camera)
+        usable = (cap is not None and self.renderer is not None and label in self.captured_labels
+                  and (cap.height, cap.width) == tuple(self.shapes[camera]))
+        if not usable:
+            return self.geom_ids(camera)
+        if camera not in self._captured_ids:
+            self._captured_ids[camera] = self.renderer.draw_ids(render_context(self.sim), cap)
+            self.renders += 1
+        return self._captured_ids[camera]
 
     def mask(self, camera: str, label: str) -> np.ndarray:
         """Boolean raw-frame mask of `label` (target, receptacle, gripper) in `camera`."""
@@ -62,7 +88,7 @@ class MaskSource:
             else:
                 lut = np.zeros(self.entities.model.ngeom + 1, dtype=bool)
                 lut[list(entity.geoms)] = True
-                self._masks[key] = lut[self.geom_ids(camera)]  # -1 (background) indexes the False at the end
+                self._masks[key] = lut[self._ids_for(camera, label)]  # -1 (background) indexes the False at the end
         return self._masks[key]
 
 
@@ -87,6 +113,8 @@ class Perturbation:
     setting_id: str = ""
     #: True where the setting needs a segmentation render or per-camera scene edits.
     needs_extra_render: bool = False
+    #: Entities (target, receptacle, gripper) whose masks the setting may ask for.
+    mask_labels: tuple[str, ...] = ()
 
     def reset(self, episode: Episode) -> None:
         """Start an episode: clear all state, draw the trial's seeds."""

@@ -51,6 +51,7 @@ class EntityMasking(Perturbation):
                               f"one of {', '.join(MASK_SCHEDULES)}")
         self.gray = _gray(case_id, params)
         self.camera_names = _cameras(case_id, params.get("views", "both"))
+        self.mask_labels = (self.entity,)
         if getattr(task, self.entity) is None:
             raise InvalidParameterError(f"case {case_id}: task {task.key} has no {self.entity} to mask")
         self.angles: dict[str, float] = {}
@@ -87,6 +88,8 @@ class CueMasking(Perturbation):
         self.dilation_px = param(case_id, params, "dilation_px", int, lambda v: 0 <= v <= 64, "0..64 px")
         self.gray = _gray(case_id, params)
         self.camera_names = _cameras(case_id, params.get("views", "both"))
+        self.mask_labels = {"gripper": ("gripper",), "gripper_object_contact": ("gripper", "target"),
+                            "placement_contact": ("target", "receptacle")}[self.region]
         need = {"gripper_object_contact": "target", "placement_contact": "receptacle"}.get(self.region)
         if need and getattr(task, need) is None:
             raise InvalidParameterError(f"case {case_id}: task {task.key} has no {need} for the {self.region} region")

@@ -20,6 +20,7 @@ from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.tasks import TaskRecord
 from vpro_assets.perturb.base import Builder, Episode, MaskSource, Perturbation, Step
+from vpro_assets.perturb.capture import CaptureRenderer
 from vpro_assets.perturb.contradiction import Contradiction
 from vpro_assets.perturb.corruption import Corruption
 from vpro_assets.perturb.entities import EntityIndex
@@ -69,13 +70,18 @@ class ObservationPipeline:
                 if cam in edits:
                     raise VProError(f"case {case_id}: two scene edits for camera {cam}")
                 edits[cam] = edit
-        self.hook = RenderHook(edits) if edits else None
+        self.mask_labels = frozenset(label for p in self.perturbations for label in p.mask_labels)
+        #: Masks from the scene the env drew (`capture`); False: full-scene segmentation renders only.
+        self.capture_masks = True
+        self.hook = RenderHook(edits) if edits or self.mask_labels else None
+        self.capture_renderer: CaptureRenderer | None = None
         self.episode: Episode | None = None
         self.entities: EntityIndex | None = None
         self.tracker: PhaseTracker | None = None
         self.step_index = -1
         self.last_notes: dict[str, list[str]] = {}
-        self.mask_renders = 0
+        self.mask_renders = 0  # mask passes rendered this episode
+        self.reference_mask_renders = 0  # of which full-scene segmentation passes
 
     @property
     def needs_extra_render(self) -> bool:
@@ -95,6 +101,7 @@ class ObservationPipeline:
         self.episode = Episode(self.case_id, int(trial), self.task)
         self.step_index = -1
         self.mask_renders = 0
+        self.reference_mask_renders = 0
         for p in self.perturbations:
             p.reset(self.episode)
         self.attach(sim)
@@ -108,6 +115,12 @@ class ObservationPipeline:
         for p in self.perturbations:
             p.attach(sim, self.entities)
         if self.hook is not None:
+            if self.mask_labels and self.capture_masks:
+                geoms = sorted({g for label in self.mask_labels if (e := self.entities.entity(label)) for g in e.geoms})
+                self.hook.capture_geoms = np.array(geoms, dtype=np.int64)
+                self.capture_renderer = CaptureRenderer(sim.model._model)
+            else:
+                self.hook.capture_geoms, self.capture_renderer = None, None
             self.hook.install(sim)
 
     def detach(self) -> None:
@@ -123,12 +136,14 @@ class ObservationPipeline:
         phase = self.tracker.update(sim)
         clean = {cam: raw_obs[image_key(cam)] for cam in self.all_cameras if image_key(cam) in raw_obs}
         shapes = {cam: frame.shape[:2] for cam, frame in clean.items()}
-        masks = MaskSource(sim, self.entities, shapes)
+        captures = self.hook.take() if self.hook is not None else {}
+        masks = MaskSource(sim, self.entities, shapes, captures, self.capture_renderer, self.mask_labels)
         step = Step(self.step_index, phase, clean, masks, predicted_frames)
         frames = dict(clean)
         for p in self.perturbations:
             p.apply(frames, step)
         self.mask_renders += masks.renders
+        self.reference_mask_renders += masks.reference_renders
         self.last_notes = step.notes
         obs = dict(raw_obs)
         for cam in clean:

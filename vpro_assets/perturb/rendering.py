@@ -6,10 +6,15 @@ scene options, same buffers, so an unedited frame is byte-identical to robosuite
 caller edit the `MjvScene` in between: that is how one camera can be shown a contradicted scene
 while the simulation, and every other camera, stay untouched. Segmentation frames use MuJoCo's
 own segmentation mode and decode to geom ids (-1 for background and non-geom objects).
+`render_geom_ids` (a full-scene segmentation render) is the reference for masks; the pipeline
+draws masks from the scene the env itself drew (`capture`), which gives the same ids at the
+entities' pixels for a fraction of the cost.
 
 `RenderHook` replaces the context's `render` method (on the instance only) so that robosuite's
 own camera sensors go through `render_frame` with the edit of their camera; robosuite re-creates
-the context on every hard reset, so the hook is installed again after each reset.
+the context on every hard reset, so the hook is installed again after each reset. When masks are
+needed it also copies, from each camera's scene, the entries of the entities and of what can
+cover them (`capture.capture`).
 """
 from __future__ import annotations
 
@@ -20,6 +25,9 @@ from typing import Callable, Mapping
 import mujoco
 import numpy as np
 
+from vpro_assets.core.errors import VProError
+from vpro_assets.perturb.capture import Capture, capture, decode_ids, drawable_geoms
+
 log = logging.getLogger(__name__)
 
 SceneEdit = Callable[[mujoco.MjvScene], None]
@@ -28,8 +36,6 @@ SceneEdit = Callable[[mujoco.MjvScene], None]
 def render_context(sim):
     ctx = getattr(sim, "_render_context_offscreen", None)
     if ctx is None:
-        from vpro_assets.core.errors import VProError
-
         raise VProError("the env has no offscreen render context; build it with has_offscreen_renderer=True")
     return ctx
 
@@ -77,42 +83,55 @@ def render_geom_ids(sim, camera: str, width: int, height: int, edit: SceneEdit |
     draw(ctx, width, height, sim.model.camera_name2id(camera), edit, segmentation=True)
     rgb = np.empty((height, width, 3), dtype=np.uint8)
     mujoco.mjr_readPixels(rgb=rgb, depth=None, viewport=mujoco.MjrRect(0, 0, width, height), con=ctx.con)
-    seg = rgb[..., 0].astype(np.int32) | (rgb[..., 1].astype(np.int32) << 8) | (rgb[..., 2].astype(np.int32) << 16)
-    scn = ctx.scn
-    lut = np.full(scn.ngeom + 2, -1, dtype=np.int32)  # pixel value = segid + 1, 0 = background
-    geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
-    for i in range(scn.ngeom):
-        g = scn.geoms[i]
-        if g.segid >= 0 and g.objtype == geom_type and g.segid + 1 < len(lut):
-            lut[g.segid + 1] = g.objid
-    seg[seg >= len(lut)] = 0
-    return lut[seg]
+    return decode_ids(rgb, ctx.scn)
 
 
 class RenderHook:
-    """Route robosuite's renders through `draw`, editing the scene for some cameras only.
+    """Route robosuite's renders through `draw`, editing the scene for some cameras only, and
+    capturing the entities' part of the scene each camera drew (`capture_geoms`, for masks).
 
     `edits` maps camera names to scene edits; renders of other cameras (and segmentation
-    renders) are exactly robosuite's. `install(sim)` must follow every hard reset.
+    renders) are exactly robosuite's. `install(sim)` must follow every hard reset. `take()` hands
+    out the captures made since the previous call (camera name -> `capture.Capture`).
     """
 
-    def __init__(self, edits: Mapping[str, SceneEdit]):
+    def __init__(self, edits: Mapping[str, SceneEdit], capture_geoms: np.ndarray | None = None):
         self.edits = dict(edits)
+        self.capture_geoms = capture_geoms
         self._ctx = None
         self._by_id: dict[int, SceneEdit] = {}
+        self._names: dict[int, str] = {}
+        self._captures: dict[str, Capture] = {}
+        self.generation = 0
         self.edit_seconds = 0.0  # time spent in scene edits (for the cost benchmark)
+        self.capture_seconds = 0.0  # time spent copying scene entries (for the cost benchmark)
 
     def install(self, sim) -> None:
         self.uninstall()
         ctx = render_context(sim)
+        model, data = sim.model._model, sim.data._data
         self._by_id = {sim.model.camera_name2id(cam): edit for cam, edit in self.edits.items()}
+        self._names = {i: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)}
+        self._captures = {}
+        drawable = drawable_geoms(model, ctx.vopt)
 
         def hooked_render(width, height, camera_id=None, segmentation=False):
             edit = None if segmentation else self._by_id.get(camera_id)
             draw(ctx, width, height, camera_id, self._timed(edit) if edit else None, segmentation)
+            if self.capture_geoms is not None and not segmentation and camera_id is not None and camera_id >= 0:
+                t0 = time.perf_counter()
+                self._captures[self._names[camera_id]] = capture(ctx, model, data, camera_id, width, height,
+                                                                 self.capture_geoms, self.generation, drawable)
+                self.capture_seconds += time.perf_counter() - t0
 
         ctx.render = hooked_render  # instance attribute shadows the class method
         self._ctx = ctx
+
+    def take(self) -> dict[str, Capture]:
+        """The captures of the renders since the last call (the frames of the current observation)."""
+        out, self._captures = self._captures, {}
+        self.generation += 1
+        return out
 
     def _timed(self, edit: SceneEdit) -> SceneEdit:
         def timed(scn):
@@ -127,6 +146,7 @@ class RenderHook:
         if self._ctx is not None and "render" in vars(self._ctx):
             del self._ctx.render
         self._ctx = None
+        self._captures = {}
 
     @property
     def installed(self) -> bool:

@@ -19,9 +19,11 @@ from vpro_assets.rollout.settle import pose_difference
 
 SCHEMA_VERSION = 1
 FILE_NAME = "settle_fingerprints.json"
-# Beyond any of these a case has drifted. Same-simulator reruns agree to 0 (bit-identical); two
-# simulators that produce the same scenes agree to within 0.05 cm and 0.5 deg on the 40 tasks.
-TOLERANCES = {"displacement_cm": 1.0, "tilt_deg": 5.0, "joint_change": 0.01}
+# Beyond any of these a case has drifted (docs/simulator.md). Reruns under one simulator agree
+# exactly; between MuJoCo 3.8.1 and 3.2.3 the 36 unaffected Normal baselines differ by at most
+# 0.56 cm (libero_spatial-08: the same resting place, a few mm over) and 0.3 deg, the affected ones
+# by 3.5 cm / 12.5 deg (libero_spatial-05) and 54 cm (libero_10-00, -01, -07).
+TOLERANCES = {"displacement_cm": 0.75, "tilt_deg": 5.0, "joint_change": 0.01}
 
 
 def fingerprints_path() -> Path:
@@ -48,11 +50,15 @@ def build(records: Iterable[Mapping], simulator: Mapping, wait_steps: int, base:
             entry = cases[rec["case"]] = {"inputs": inputs, "trials": {}}
         entry["trials"] = {**entry["trials"], str(rec["trial"]): trial_fingerprint(rec)}
     return {"schema_version": SCHEMA_VERSION, "simulator": dict(sorted(simulator.items())), "wait_steps": wait_steps,
-            "tolerances": TOLERANCES, "cases": dict(sorted(cases.items()))}
+            "cases": dict(sorted(cases.items()))}
 
 
 def dumps(fingerprints: Mapping) -> str:
-    return json.dumps(fingerprints, indent=1, sort_keys=True) + "\n"
+    """Canonical text: the header fields one per line, then one line per case (diffs name the case)."""
+    lines = [f" {json.dumps(k)}: {json.dumps(v, sort_keys=True)}," for k, v in sorted(fingerprints.items()) if k != "cases"]
+    cases = [f"  {json.dumps(cid)}: {json.dumps(entry, sort_keys=True, separators=(',', ':'))}"
+             for cid, entry in sorted(fingerprints["cases"].items())]
+    return "{\n" + "\n".join(lines) + '\n "cases": {\n' + ",\n".join(cases) + "\n }\n}\n"
 
 
 def write(path: Path | str, fingerprints: Mapping) -> None:
