@@ -3,6 +3,7 @@
 Layout (one concept per module, in pipeline order):
 - `rendering`    one camera frame from robosuite's render context, optionally with a scene edit;
                  `RenderHook` routes robosuite's own camera renders through it
+- `capture`      the entities' part of the scene the env drew, drawn again as a segmentation mask
 - `entities`     target, receptacle, gripper and articulated parts as MuJoCo ids of one sim
 - `phases`       manipulation phase tracker (approach, grasp, transport, pre_placement, placed)
 - `schedules`    when a perturbation is on (mask schedules, corruption bursts, stale indices)
@@ -29,7 +30,8 @@ reset and `pipeline.observe(raw_obs, sim, predicted_frames)` per observation.
 
 Guarantees: frames are perturbed in the raw (bottom-up) orientation before any adapter; every
 random draw comes from `seeding.rng(case_id, trial, component)`; the physics is never touched
-(masks are extra segmentation renders; contradictions edit one camera's `MjvScene` only);
+(masks are segmentation renders of the entities and what can cover them, captured from the
+scene the env drew; contradictions edit one camera's `MjvScene` only);
 staleness, view unavailability, corruption and prediction feedback render nothing extra.
 """
 from vpro_assets.perturb.pipeline import FAMILIES, ObservationPipeline, build_pipeline, register
