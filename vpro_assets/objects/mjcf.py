@@ -74,25 +74,7 @@ def object_xml(
 ) -> bytes:
     """The MJCF object file as canonical bytes."""
     root = ET.Element("mujoco", {"model": name})
-    asset = ET.SubElement(root, "asset")
-    for i, visual in enumerate(visuals):
-        if visual.texture_file is not None:
-            ET.SubElement(
-                asset,
-                "texture",
-                {
-                    "name": f"{name}_tex{i}",
-                    "file": visual.texture_file,
-                    **dict(sorted({"type": "2d", **visual.texture_attrs}.items())),
-                },
-            )
-        attrs = dict(sorted(visual.material.items()))
-        if visual.texture_file is not None:
-            attrs["texture"] = f"{name}_tex{i}"
-        ET.SubElement(asset, "material", {"name": f"{name}_mat{i}", **attrs})
-        ET.SubElement(asset, "mesh", {"name": f"{name}_vis{i}", "file": visual.mesh_file})
-    for k, hull_file in enumerate(hull_files):
-        ET.SubElement(asset, "mesh", {"name": f"{name}_hull{k:02d}", "file": hull_file})
+    _assets(ET.SubElement(root, "asset"), name, visuals, hull_files)
     worldbody = ET.SubElement(root, "worldbody")
     outer = ET.SubElement(worldbody, "body")
     body = ET.SubElement(outer, "body", {"name": "object", **({"pos": body_pos} if body_pos else {})})
@@ -101,40 +83,32 @@ def object_xml(
         "inertial",
         {"pos": fmt_fixed(inertial.com), "mass": fmt_sci(inertial.mass), "fullinertia": inertial.fullinertia()},
     )
-    for i, _visual in enumerate(visuals):
-        ET.SubElement(
-            body,
-            "geom",
-            {
-                "name": f"{name}_vis{i}",
-                "type": "mesh",
-                "mesh": f"{name}_vis{i}",
-                "material": f"{name}_mat{i}",
-                "group": VISUAL_GROUP,
-                "contype": "0",
-                "conaffinity": "0",
-                "mass": "0",
-            },
-        )
+    for i in range(len(visuals)):
+        visual = {"name": f"{name}_vis{i}", "type": "mesh", "mesh": f"{name}_vis{i}", "material": f"{name}_mat{i}"}
+        ET.SubElement(body, "geom", {**visual, "group": VISUAL_GROUP, "contype": "0", "conaffinity": "0", "mass": "0"})
     contact = dict(sorted(collision_attrs.items()))
-    for k, _hull in enumerate(hull_files):
-        ET.SubElement(
-            body,
-            "geom",
-            {
-                "name": f"{name}_hull{k:02d}",
-                "type": "mesh",
-                "mesh": f"{name}_hull{k:02d}",
-                "group": COLLISION_GROUP,
-                "density": fmt_sci(hull_density),
-                **contact,
-                "rgba": COLLISION_RGBA,
-            },
-        )
+    for k in range(len(hull_files)):
+        hull = {"name": f"{name}_hull{k:02d}", "type": "mesh", "mesh": f"{name}_hull{k:02d}", "group": COLLISION_GROUP}
+        ET.SubElement(body, "geom", {**hull, "density": fmt_sci(hull_density), **contact, "rgba": COLLISION_RGBA})
     for site in sites:
         ET.SubElement(outer, "site", dict(site))
     ET.indent(root, space="  ")
     return (ET.tostring(root, encoding="unicode") + "\n").encode("utf-8")
+
+
+def _assets(asset: ET.Element, name: str, visuals: list[VisualMesh], hull_files: list[str]) -> None:
+    """Textures, materials and meshes of the visual parts, then the hull meshes."""
+    for i, visual in enumerate(visuals):
+        if visual.texture_file is not None:
+            texture = {"name": f"{name}_tex{i}", "file": visual.texture_file}
+            ET.SubElement(asset, "texture", {**texture, **dict(sorted({"type": "2d", **visual.texture_attrs}.items()))})
+        attrs = dict(sorted(visual.material.items()))
+        if visual.texture_file is not None:
+            attrs["texture"] = f"{name}_tex{i}"
+        ET.SubElement(asset, "material", {"name": f"{name}_mat{i}", **attrs})
+        ET.SubElement(asset, "mesh", {"name": f"{name}_vis{i}", "file": visual.mesh_file})
+    for k, hull_file in enumerate(hull_files):
+        ET.SubElement(asset, "mesh", {"name": f"{name}_hull{k:02d}", "file": hull_file})
 
 
 def drop_test_xml(object_xml_path, pos=(0.0, 0.0, 0.05), quat=(1.0, 0.0, 0.0, 0.0)) -> str:
