@@ -18,7 +18,6 @@ interrupted build leaves whole cases or none; a rerun resumes with the cases sti
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import os
@@ -31,24 +30,18 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from vpro_assets.benchmark.catalog import library_versions
 from vpro_assets.core import paths
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import VProError
-from vpro_assets.core.hashing import canonical_json, sha256_bytes, sha256_file
-from vpro_assets.libero import bridge as libero_bridge
-from vpro_assets.libero.tasks import get_task
+from vpro_assets.core.hashing import canonical_json, sha256_bytes
 from vpro_assets.objects.registry import register_mjcf_object
-from vpro_assets.scene import bddl_doc, plugins, sim, state_files
-from vpro_assets.scene import pool as pool_mod
+from vpro_assets.scene import bddl_doc, case_key, plugins, sim, state_files
 from vpro_assets.scene.base_scene import BaseScene, base_scene
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.init_gen import trial_state
 from vpro_assets.scene.variant import GeneratedObject, SceneVariant
 
 log = logging.getLogger(__name__)
-
-BUILD_VERSION = 3  # bump when what a build writes changes without a generator's version changing
 
 
 @dataclass
@@ -59,42 +52,6 @@ class CaseResult:
     stages: dict = field(default_factory=dict)
     error: str = ""
     files: dict = field(default_factory=dict)  # relative path -> sha256
-
-
-def input_hash(case: dict, generator: plugins.Generator) -> str:
-    task = get_task(case["task"])
-    h = hashlib.sha256()
-    for part in (
-        f"build-v{BUILD_VERSION}",
-        f"{generator.name}-v{generator.version}",
-        canonical_json({k: case[k] for k in ("id", "setting", "params", "trial_seeds", "task")}),
-        libero_bridge.bddl_path(task.suite, task.name).read_bytes().hex(),
-        libero_bridge.init_state_path(task.suite, task.name).read_bytes().hex(),
-        canonical_json({k: v.to_json() for k, v in pool_mod.pool().items()}),
-        canonical_json(library_versions()),
-        (Path(bddl_doc.TEMPLATE_DIR) / bddl_doc.SCENE_TEMPLATE).read_text(),
-        (Path(bddl_doc.TEMPLATE_DIR) / bddl_doc.REGION_TEMPLATE).read_text(),
-    ):
-        h.update(part.encode())
-        h.update(b"\0")
-    return h.hexdigest()
-
-
-def _is_current(case_id: str, key: str) -> dict | None:
-    meta_path = paths.scene_case_dir(case_id) / paths.SCENE_META
-    if not meta_path.is_file():
-        return None
-    try:
-        meta = json.loads(meta_path.read_text())
-    except json.JSONDecodeError:
-        return None
-    if meta.get("input_hash") != key:
-        return None
-    for rel, digest in meta.get("files", {}).items():
-        path = paths.scene_case_dir(case_id) / rel
-        if not path.is_file() or sha256_file(path) != digest:
-            return None
-    return meta
 
 
 def ensure_objects(generated: list[GeneratedObject], case_id: str, stages: dict | None = None) -> dict[str, Path]:
@@ -135,9 +92,9 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
     cid = case["id"]
     generator = plugins.generator_for(case)
     stages: dict[str, float] = {}
-    key = input_hash(case, generator)  # cheap: no simulation, so a warm rebuild is quick
+    key = case_key.input_hash(case, generator)  # cheap: no simulation, so a warm rebuild is quick
     if not force:
-        meta = _is_current(cid, key)
+        meta = case_key.current_meta(cid, key)
         if meta is not None:
             return CaseResult(cid, "unchanged", time.perf_counter() - started, stages, files=meta["files"])
     t = time.perf_counter()
@@ -186,21 +143,7 @@ def _write_case(
     try:
         bddl_path = tmp / _bddl_name(base.task)
         bddl_path.write_text(text)
-        t = time.perf_counter()
-        env = sim.physics_env(str(bddl_path))
-        stages["variant_env"] = time.perf_counter() - t
-        t = time.perf_counter()
-        try:
-            rows = [
-                trial_state(
-                    env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k], fixture_seed=seed
-                )
-                for k, seed in enumerate(case["trial_seeds"])
-            ]
-        finally:
-            env.close()
-        stages["settle"] = time.perf_counter() - t
-        states = np.stack(rows)
+        states = _trial_states(bddl_path, case, base, variant, stages)
         files = {
             _bddl_name(base.task): text.encode(),
             f"{base.task.name}.pruned_init": state_files.libero_init_bytes(states),
@@ -209,30 +152,56 @@ def _write_case(
         for name, data in files.items():
             (tmp / name).write_bytes(data)
         hashes = {name: sha256_bytes(data) for name, data in files.items()}
-        meta = {
-            "case": cid,
-            "input_hash": key,
-            "generator": generator.name,
-            "generator_version": generator.version,
-            "build_version": BUILD_VERSION,
-            "summary": variant.summary,
-            "details": dict(variant.details),
-            "added": list(variant.added),
-            "generated_objects": {o.name: {"template": o.template} for o in variant.generated_objects},
-            "init_states": {
-                "rows": len(rows),
-                "width": int(states.shape[1]),
-                # trial k starts from LIBERO's row k; listed only where one was replaced
-                **({"libero_rows": base.trial_rows} if base.trial_rows != list(range(len(rows))) else {}),
-            },
-            "files": hashes,
-        }
+        meta = {**_meta(cid, key, generator, base, variant, states), "files": hashes}
         (tmp / paths.SCENE_META).write_text(canonical_json(meta))
         publish_dir(tmp, paths.scene_case_dir(cid))
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return hashes
+
+
+def _trial_states(
+    bddl_path: Path, case: dict, base: BaseScene, variant: SceneVariant, stages: dict[str, float]
+) -> np.ndarray:
+    """One accepted initial state per trial seed, in LIBERO's env of the variant's BDDL."""
+    t = time.perf_counter()
+    env = sim.physics_env(str(bddl_path))
+    stages["variant_env"] = time.perf_counter() - t
+    t = time.perf_counter()
+    try:
+        rows = [
+            trial_state(env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k], fixture_seed=seed)
+            for k, seed in enumerate(case["trial_seeds"])
+        ]
+    finally:
+        env.close()
+    stages["settle"] = time.perf_counter() - t
+    return np.stack(rows)
+
+
+def _meta(
+    cid: str, key: str, generator: plugins.Generator, base: BaseScene, variant: SceneVariant, states: np.ndarray
+) -> dict:
+    """meta.json of a case (without its file hashes): inputs, the rule's choices, the states' shape."""
+    rows = len(states)
+    return {
+        "case": cid,
+        "input_hash": key,
+        "generator": generator.name,
+        "generator_version": generator.version,
+        "build_version": case_key.BUILD_VERSION,
+        "summary": variant.summary,
+        "details": dict(variant.details),
+        "added": list(variant.added),
+        "generated_objects": {o.name: {"template": o.template} for o in variant.generated_objects},
+        "init_states": {
+            "rows": rows,
+            "width": int(states.shape[1]),
+            # trial k starts from LIBERO's row k; listed only where one was replaced
+            **({"libero_rows": base.trial_rows} if base.trial_rows != list(range(rows)) else {}),
+        },
+    }
 
 
 def _worker_init() -> None:

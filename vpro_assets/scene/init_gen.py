@@ -33,7 +33,7 @@ from vpro_assets.core.errors import VProError
 from vpro_assets.core.mjgeom import quat_mul
 from vpro_assets.scene import sim
 from vpro_assets.scene.pose import INVERT, class_quat
-from vpro_assets.scene.variant import SceneVariant
+from vpro_assets.scene.variant import Placement, SceneVariant
 
 log = logging.getLogger(__name__)
 
@@ -113,19 +113,7 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
         offset = centre - qpos[:2]  # the object's origin need not be its footprint's centre
         others = {k: v for k, v in now.items() if k != p.instance and k not in pending}
         if p.keep_xy:
-            xy = qpos[:2].copy()
-            if p.clear_of_neighbours and p.instance in base_layout:
-                # What it stands on (a ramekin, a drawer, a rack) does not count: it stays there.
-                floor = base_layout[p.instance]["lo"][2] + SUPPORT_TOL
-                neighbours = [
-                    (v["lo"], v["hi"])
-                    for v in others.values()
-                    if v["hi"][2] > floor and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))
-                ]
-                if not _clear(centre, radius, neighbours, p.margin):
-                    # No room nearby in a crowded layout: LIBERO's spot, if it settles.
-                    with contextlib.suppress(InitStateError):
-                        xy = _ring_spot(p, xy, rng, offset, radius, neighbours)
+            xy = _kept_spot(p, qpos[:2].copy(), rng, centre, offset, radius, others, base_layout)
         elif p.take_place_of:
             was = base_layout[p.take_place_of]
             xy = (was["lo"][:2] + was["hi"][:2]) / 2 - offset  # footprint centre on the other's
@@ -148,6 +136,34 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
         data.set_joint_qvel(joint, np.zeros(6))
         raw.sim.forward()
         pending.discard(p.instance)
+
+
+def _kept_spot(
+    p: Placement,
+    xy: np.ndarray,
+    rng: np.random.Generator,
+    centre: np.ndarray,
+    offset: np.ndarray,
+    radius: float,
+    others: dict[str, dict],
+    base_layout: dict,
+) -> np.ndarray:
+    """LIBERO's xy of the trial for an object that keeps its place, or (`clear_of_neighbours`)
+    a clear spot nearby where it would touch a neighbour there."""
+    if not (p.clear_of_neighbours and p.instance in base_layout):
+        return xy
+    # What it stands on (a ramekin, a drawer, a rack) does not count: it stays there.
+    floor = base_layout[p.instance]["lo"][2] + SUPPORT_TOL
+    neighbours = [
+        (v["lo"], v["hi"])
+        for v in others.values()
+        if v["hi"][2] > floor and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))
+    ]
+    if not _clear(centre, radius, neighbours, p.margin):
+        # No room nearby in a crowded layout: LIBERO's spot, if it settles.
+        with contextlib.suppress(InitStateError):
+            xy = _ring_spot(p, xy, rng, offset, radius, neighbours)
+    return xy
 
 
 def _problems(env, success: bool) -> list[str]:
