@@ -13,6 +13,7 @@ visual-only geometry (never collides, never moves), so both states are seen at o
 
 from __future__ import annotations
 
+from generators.precondition import openness_flip
 from vpro_assets.core.mjgeom import quat_mul
 from vpro_assets.scene.bddl_doc import Region
 from vpro_assets.scene.context import GenContext
@@ -60,8 +61,6 @@ FIXTURE_REGION_HALF = 0.0005  # m
 @register("visual_state_ambiguity/receptacle_openness")
 def receptacle_openness(ctx: GenContext) -> SceneVariant:
     """The receptacle's drawer or door is also drawn, visual-only, in the other open/closed state."""
-    from generators.precondition import openness_flip
-
     replace, joints, new_state = openness_flip(ctx)
     fixture = ctx.task.receptacle
     category = ctx.task.category_of(fixture)

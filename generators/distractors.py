@@ -1,8 +1,8 @@
 """Task-Relevant Distractors: six generators, each adding one object chosen by a stated rule.
 
-Choice rules (over the pool of LIBERO's movable objects, `vpro_assets.scene.pool`; ties broken by
-name, so every choice is deterministic; for the four "same ..." rules the best-ranked candidate
-that has a free spot near the target is used):
+Choice rules (over the pool of LIBERO's movable objects, `vpro_assets.scene.pool`; ranked in
+`generators.distractor_choice`, ties broken by name, so every choice is deterministic; for the
+four "same ..." rules the best-ranked candidate that has a free spot near the target is used):
 - same_category: an object of the target's category (another model), else of its family, else
   of its grasp class; the closest in size within a tier.
 - same_color: the object of another family closest in size, recoloured with the target's
@@ -40,11 +40,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from generators.distractor_choice import choose
 from vpro_assets.core.errors import GeneratorError
-from vpro_assets.scene import pool as pool_mod
 from vpro_assets.scene.bddl_doc import Region
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
+from vpro_assets.scene.recolor import recolored_object
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
 JITTER = 0.015
@@ -52,52 +53,6 @@ ON_TABLE_TOL = 0.01  # m: a target whose lowest point is further from the table 
 FAMILIAR_ROOM = 0.015  # m: room a competitor needs around the familiar position (the trial placement margin)
 TAKE_PLACE_WIDTH = 1.1  # a competitor taking the target's exact place is at most this much wider than the target
 CROWDED_CLEARANCE = 0.001  # m: least room (beyond the 10% padded footprint radius) around an obstacle on a crowded path
-GRASP_ALIKE = {"flat": "bowl"}  # grasp class -> the class grasped the same way, when it has no other member
-OBSTACLE_WIDTH, OBSTACLE_MIN_HEIGHT = 0.06, 0.08
-
-
-def _size_gap(a: pool_mod.PoolObject, b: pool_mod.PoolObject) -> float:
-    return abs(math.log(a.size / b.size))
-
-
-def _pick(ctx: GenContext, candidates: list, key, rule: str) -> list[pool_mod.PoolObject]:
-    if not candidates:
-        raise ctx.fail(f"the {rule} rule finds no object in the pool for target {ctx.task.target_category!r}")
-    return sorted(candidates, key=lambda p: (key(p), p.name))
-
-
-def choose(ctx: GenContext, rule: str) -> list[pool_mod.PoolObject]:
-    """The rule's candidates, best first (the first that fits the scene is used)."""
-    target = ctx.target_pool()
-    others = [p for p in pool_mod.pool().values() if p.name != target.name]
-    size = lambda p: _size_gap(p, target)  # noqa: E731
-    if rule in ("same_category", "familiar_position"):
-        # Tiers: the target's category, then its family, then its grasp class; closest size first.
-        tiers = [
-            [p for p in others if p.category == target.category],
-            [p for p in others if p.family == target.family and p.category != target.category],
-            [p for p in others if p.grasp == target.grasp and p.family != target.family],
-        ]
-        ranked = [q for tier in tiers for q in sorted(tier, key=lambda p: (size(p), p.name))]
-        return _pick(ctx, ranked, lambda p: ranked.index(p), rule)
-    if rule == "same_color":
-        return _pick(ctx, [p for p in others if p.family != target.family], size, rule)
-    if rule == "same_shape":
-        return _pick(
-            ctx,
-            [p for p in others if p.category != target.category],
-            lambda p: (round(float(np.linalg.norm(p.aspect - target.aspect)), 6), size(p)),
-            rule,
-        )
-    if rule == "same_affordance":
-        grasp = [p for p in others if p.grasp == target.grasp]
-        grasp = grasp or [p for p in others if p.grasp == GRASP_ALIKE.get(target.grasp)]
-        return _pick(ctx, [p for p in grasp if p.category != target.category] or grasp, size, rule)
-    if rule == "trajectory_obstacle":
-        fam = [p for p in others if p.family != target.family]
-        tall = [p for p in fam if p.height >= OBSTACLE_MIN_HEIGHT] or fam
-        return _pick(ctx, tall, lambda p: abs(max(p.footprint) - OBSTACLE_WIDTH), rule)
-    raise ctx.fail(f"unknown distractor rule {rule!r}")
 
 
 def _variant(
@@ -182,8 +137,6 @@ def same_affordance(ctx: GenContext) -> SceneVariant:
 @register("task_relevant_distractors/same_color")
 def same_color(ctx: GenContext) -> SceneVariant:
     """Adds an object of another family recoloured with the target's dominant colour."""
-    from vpro_assets.scene.recolor import recolored_object
-
     chosen, spot = _near_target(ctx, "same_color")
     color = ctx.target_pool().color
     generated = recolored_object(chosen.name, color)

@@ -7,14 +7,13 @@ state of the same index with the deformed target lowered onto the table at the s
 from __future__ import annotations
 
 from vpro_assets.benchmark import taxonomy as tx
+from vpro_assets.objects import deformed as tg
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
 
 def _deformed(category: str, deformation: str, severity: int) -> GeneratedObject:
-    from vpro_assets.objects import deformed as tg
-
     return GeneratedObject(
         name=tg.object_name(category, deformation, severity),
         # Returns the pipeline's record (xml_path, and per-stage timings the build adds up).

@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 from dataclasses import asdict, dataclass
 
+import manifold3d
 import numpy as np
 import trimesh
 
@@ -97,8 +98,6 @@ def split_support_hulls(
     vertical planes (`across`, unit vectors) through its centroid (manifold3d `split_by_plane`);
     the pieces are convex and cover the same volume.
     """
-    import manifold3d
-
     heights = [float((np.asarray(h.vertices) @ up).min()) for h in hulls]
     bottom = min(heights)
     support = [i for i, h in enumerate(heights) if h - bottom <= SUPPORT_TOLERANCE]

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import sha256_bytes
@@ -85,8 +86,6 @@ def read_msh(path: Path | str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
 
 def read_obj_soup(path: Path | str) -> tuple[np.ndarray, np.ndarray | None]:
     """A plain OBJ (v, vt, f) as a triangle soup: corners (F,3,3) and uv (F,3,2) or None."""
-    import trimesh
-
     mesh = trimesh.load(str(path), force="mesh", process=False)
     if not isinstance(mesh, trimesh.Trimesh):
         raise MeshError(f"{path}: not a triangle mesh ({type(mesh).__name__})")

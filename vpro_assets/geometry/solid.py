@@ -20,7 +20,10 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 
+import manifold3d
 import numpy as np
+import trimesh
+from scipy import ndimage
 
 from vpro_assets.geometry.meshes import MeshError, quantize
 
@@ -45,8 +48,6 @@ class RepairReport:
 
 def manifold_from_arrays(vertices: np.ndarray, faces: np.ndarray, merge: bool = True):
     """A manifold3d `Manifold` from indexed arrays (float32 positions as manifold3d stores them)."""
-    import manifold3d
-
     mesh = manifold3d.Mesh(
         vert_properties=np.ascontiguousarray(vertices, dtype=np.float32),
         tri_verts=np.ascontiguousarray(faces, dtype=np.uint32),
@@ -62,8 +63,6 @@ def manifold_arrays(manifold) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _ok(manifold) -> bool:
-    import manifold3d
-
     return manifold.status() == manifold3d.Error.NoError and not manifold.is_empty() and manifold.volume() > 0
 
 
@@ -87,8 +86,6 @@ def repair_part(name: str, corners: np.ndarray, pitch: float | None = None):
         return manifold, RepairReport(name, "merge", len(corners), manifold.num_tri(), manifold.volume())
     merge_status = str(manifold.status())
 
-    import trimesh
-
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     trimesh.repair.fill_holes(mesh)
     manifold = manifold_from_arrays(np.asarray(mesh.vertices), np.asarray(mesh.faces))
@@ -109,10 +106,6 @@ def repair_part(name: str, corners: np.ndarray, pitch: float | None = None):
 
 def level_set_remesh(name: str, vertices: np.ndarray, faces: np.ndarray, pitch: float | None = None):
     """Volumetric remesh of any surface soup through `Manifold.level_set` (see module doc)."""
-    import manifold3d
-    import trimesh
-    from scipy import ndimage
-
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     extent = float((hi - lo).max())
     if extent <= 0:
@@ -184,8 +177,6 @@ def _trilinear(field: np.ndarray, origin: np.ndarray, pitch: float):
 
 def union(manifolds: list):
     """Boolean union of closed parts (manifold3d); a single part is returned as it is."""
-    import manifold3d
-
     if len(manifolds) == 1:
         return manifolds[0]
     result = manifold3d.Manifold.batch_boolean(manifolds, manifold3d.OpType.Add)
@@ -196,8 +187,6 @@ def union(manifolds: list):
 
 def check_closed_manifold(vertices: np.ndarray, faces: np.ndarray, what: str) -> None:
     """Raise MeshError unless (vertices, faces) is a watertight, consistently wound, positive solid."""
-    import trimesh
-
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     if not (mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0):
         raise MeshError(

@@ -11,6 +11,7 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
@@ -53,8 +54,6 @@ class BaseScene:
             return False
         # Not hidden behind a fixture or object: the camera ray to a point 3 cm above the table
         # meets nothing before it (LIBERO's first state, settled).
-        import mujoco
-
         model, data = self.ray_scene
         target = np.array([xy[0], xy[1], (self.surface_z if z is None else z) + 0.03])
         vec = target - pos
@@ -146,8 +145,6 @@ def _sound_rows(env, rows: np.ndarray, count: int, task_key: str) -> list[int]:
 
 def _site_joints(env) -> dict[str, list[str]]:
     """Joints that move each region site (drawers) and each articulated fixture (all its joints)."""
-    import mujoco
-
     raw = sim.raw(env)
     m = raw.sim.model._model
     out = {}
@@ -178,8 +175,6 @@ def _camera(env, name: str) -> tuple:
 
 
 def _ray_scene(env) -> tuple:
-    import mujoco
-
     raw = sim.raw(env)
     model = raw.sim.model._model
     data = mujoco.MjData(model)
