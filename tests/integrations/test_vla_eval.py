@@ -210,6 +210,12 @@ def test_smoke_run_records_every_episode_same_as_in_process_and_reports(tmp_path
         policy = Replay(actions)
         ref = run_episode(c, 0, policy, EpisodeSettings(max_steps_override=20))
         assert_same_episode(obs_dir / f"{cid.replace('/', '__')}__t0.npz", policy, m, ref)
+    # the exported aggregate JSON gives the same rows as the recording database
+    key = ("case_id", "trial", "status", "success", "steps", "final_state", "category", "setting", "indicator")
+    _, from_db = read_vla_eval(results)
+    _, from_json = read_vla_eval(next(results.glob("*_aggregate.json")))
+    assert [tuple(r[k] for k in key) for r in from_db] == [tuple(r[k] for k in key) for r in from_json]
+    assert len(from_db) == 2
     written = write_report(results, tmp_path / "report", plots=False)
     md = written["markdown"].read_text()
     assert "ScriptedModelServer" in md and "Camera Staleness" in md and "n=1" in md
