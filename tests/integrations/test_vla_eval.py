@@ -32,6 +32,7 @@ from vla_eval.benchmarks.libero.utils import preprocess_libero_image  # noqa: E4
 from vla_eval.rotation import quat_to_axisangle  # noqa: E402
 
 from vpro_assets.benchmark.catalog import find_case, load_catalog  # noqa: E402
+from vpro_assets.benchmark.selection import select_cases  # noqa: E402
 from vpro_assets.core import paths  # noqa: E402
 from vpro_assets.integrations.vla_eval import config_names, config_path  # noqa: E402
 from vpro_assets.libero.env import NOOP_ACTION  # noqa: E402
@@ -180,13 +181,21 @@ def _metrics(results: Path) -> dict[tuple[str, int], dict]:
 
 
 def test_shipped_configs_cover_every_category_and_select_cases():
-    cats = {c["category"] for c in load_catalog(paths.catalog_path())["cases"]}
+    catalog = load_catalog(paths.catalog_path())
+    cats = {c["category"] for c in catalog["cases"]}
     assert set(config_names()) == cats | {"all", "normal", "smoke"}
     for name in config_names():
         cfg = yaml.safe_load(config_path(name).read_text())
         (entry,) = cfg["benchmarks"]
         assert entry["benchmark"] == BENCHMARK
         assert entry["episodes_per_task"] == (1 if name == "smoke" else 10)
+        chosen = {c["id"] for c in select_cases(catalog, entry["params"]["select"])}
+        if name == "all":
+            assert chosen == {c["id"] for c in catalog["cases"] + catalog["normal"]}
+        elif name == "normal":
+            assert chosen == {c["id"] for c in catalog["normal"]}
+        elif name in cats:
+            assert chosen == {c["id"] for c in catalog["cases"] if c["category"] == name}
     smoke = yaml.safe_load(config_path("smoke").read_text())["benchmarks"][0]["params"]["select"]
     assert smoke == [NORMAL, OBSERVATION]
 
