@@ -128,7 +128,7 @@ def summary(results: Path, shapes: Path) -> str:
             latest[(r["category"], r["deformation"], r["severity"])] = r
     cold = list(latest.values())
     warm = [r for r in rows if r["cached"]]
-    lines = ["## Target geometry generation (`generators/target_geometry.py`)", "",
+    lines = ["## Target geometry generation (`vpro_assets/objects/deformed.py`)", "",
              "Measured with `scripts/geometry_benchmark.py` on this machine (2 cores shared with other jobs, "
              "so times are upper bounds), default coacd search (`vpro_assets.geometry.convex.CoacdParams`).", ""]
     if cold:

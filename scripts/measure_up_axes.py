@@ -2,7 +2,7 @@
 
 For every target category of a Target Geometry Variation case, builds the first task whose target
 has that category, resets it, and maps the world's up direction into the object's frame through
-the body's orientation. Prints the `UP_AXES` table of `generators/target_geometry.py`.
+the body's orientation. Prints the `UP_AXES` table of `vpro_assets/objects/deformed.py`.
 
     .venv/bin/python scripts/measure_up_axes.py
 """
