@@ -115,7 +115,7 @@ def test_observer_applies_edits_from_the_first_observation(scene):
     env, task, state = scene
     case = case_of("vpro/cross_view_contradiction/existence-third_person-v1", task)
     raw = restart(env, state)
-    observer = wrap_case_env(env, case, trial=0)
+    observer = wrap_case_env(env, case, trial=0, task=task)
     try:
         observer.on_reset(raw)
         images = observer.policy_images(raw, 0)
@@ -227,7 +227,7 @@ def test_observer_consumes_a_chunk_of_predicted_frames(scene):
     env, task, state = scene
     case = case_of("vpro/prediction_reality_divergence/recursive_self_prediction-v1", task)
     raw = restart(env, state)
-    observer = wrap_case_env(env, case, trial=0)
+    observer = wrap_case_env(env, case, trial=0, task=task)
     observer.on_reset(raw)
     chunk = np.stack([np.full((RES, RES, 3), v, np.uint8) for v in (10, 20)])
     observer.feed_predicted({"agentview": chunk})

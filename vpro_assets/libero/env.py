@@ -13,12 +13,11 @@ import numpy as np
 from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.init_states import read_init_states
+from vpro_assets.libero.names import CAMERAS, GRIPPER_PREFIX  # noqa: F401 (re-exported)
 from vpro_assets.libero.tasks import TaskRecord
 
 log = logging.getLogger(__name__)
 
-CAMERAS = ("agentview", "robot0_eye_in_hand")
-GRIPPER_PREFIX = "gripper0_"  # robosuite's prefix of every body and geom of the first robot's gripper
 DEFAULT_RESOLUTION = 256
 NOOP_ACTION = np.array([0, 0, 0, 0, 0, 0, -1], dtype=np.float64)
 

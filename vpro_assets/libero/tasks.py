@@ -6,112 +6,16 @@ goal predicates, articulation of the fixtures involved), never from its name or 
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
 from typing import Iterable
 
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.core.errors import UnknownIdError
-
-# LIBERO's problem classes (the `(problem ...)` name selects the scene class).
-PLACEMENT_PREDICATES = ("on", "in")
-
-
-@dataclass(frozen=True)
-class Articulation:
-    name: str  # fixture instance, e.g. "wooden_cabinet_1"
-    category: str  # LIBERO object class name, e.g. "wooden_cabinet"
-    kind: str  # "openable" (doors, drawers) or "switchable" (stove knob)
-
-
-@dataclass(frozen=True)
-class TaskRecord:
-    suite: str
-    index: int  # position in LIBERO's task order for the suite
-    name: str  # LIBERO's task name (the BDDL file stem)
-    language: str
-    problem_class: str
-    objects: tuple[tuple[str, str], ...]  # (instance, category) of movable objects
-    fixtures: tuple[tuple[str, str], ...]  # (instance, category) of fixtures
-    objects_of_interest: tuple[str, ...]
-    goal: tuple[tuple[str, ...], ...]  # goal predicates, lower-case name first
-    target: str | None  # the first object the goal places, None for fixture-only goals
-    receptacle: str | None  # the object or fixture the target goes on or into, None for the table
-    receptacle_region: str | None  # region of the receptacle named by the goal, if any
-    placement_relation: str | None  # "on" or "in"
-    articulations: tuple[Articulation, ...] = field(default=())  # articulated entities the goal involves
-
-    @property
-    def key(self) -> str:
-        """Short, stable task id: `libero_goal-03`."""
-        return f"{self.suite}-{self.index:02d}"
-
-    @property
-    def bddl_relpath(self) -> str:
-        return f"{self.suite}/{self.name}.bddl"
-
-    @property
-    def init_relpath(self) -> str:
-        return f"{self.suite}/{self.name}.pruned_init"
-
-    @property
-    def instruction(self) -> str:
-        """The prompt models are evaluated with: LIBERO's benchmark derives it from the task's file
-        name (openpi, OpenVLA-OFT and LeRobot use it), and it can differ from the BDDL's
-        `(:language ...)`, e.g. "open the top drawer and put the bowl inside" for a BDDL that says
-        "Open the top layer of the drawer and put the bowl inside"."""
-        return libero_instruction(self.name)
-
-    def category_of(self, instance: str) -> str:
-        return dict(self.objects + self.fixtures)[instance]
-
-    @property
-    def target_category(self) -> str | None:
-        return self.category_of(self.target) if self.target else None
-
-    @property
-    def requires_grasp(self) -> bool:
-        """The target must be lifted onto or into something (not pushed along the table)."""
-        return self.target is not None and self.receptacle is not None
-
-    @property
-    def openable_receptacle(self) -> bool:
-        """The target goes into something that opens and closes (a drawer, a microwave)."""
-        return self.placement_relation == "in" and any(
-            a.name == self.receptacle and a.kind == "openable" for a in self.articulations
-        )
-
-    def to_json(self) -> dict:
-        return {
-            "key": self.key,
-            "suite": self.suite,
-            "index": self.index,
-            "name": self.name,
-            "language": self.language,
-            "instruction": self.instruction,
-            "problem_class": self.problem_class,
-            "objects": [list(o) for o in self.objects],
-            "fixtures": [list(f) for f in self.fixtures],
-            "objects_of_interest": list(self.objects_of_interest),
-            "goal": [list(g) for g in self.goal],
-            "target": self.target,
-            "target_category": self.target_category,
-            "receptacle": self.receptacle,
-            "receptacle_region": self.receptacle_region,
-            "placement_relation": self.placement_relation,
-            "requires_grasp": self.requires_grasp,
-            "articulations": [vars(a) for a in self.articulations],
-            "bddl": self.bddl_relpath,
-            "init_states": self.init_relpath,
-        }
-
-
-def libero_instruction(task_name: str) -> str:
-    """LIBERO's `grab_language_from_filename`, restated because importing
-    `libero.libero.benchmark` imports torch."""
-    if task_name[0].isupper():  # libero_10/90 names carry a SCENE prefix
-        cut = task_name.find("SCENE") + (8 if "SCENE10" in task_name else 7)
-        return " ".join(task_name[cut:].split("_"))
-    return " ".join(task_name.split("_"))
+from vpro_assets.libero.task_record import (  # noqa: F401 (re-exported)
+    PLACEMENT_PREDICATES,
+    Articulation,
+    TaskRecord,
+    libero_instruction,
+)
 
 
 def _flatten(named: dict[str, list[str]]) -> tuple[tuple[str, str], ...]:

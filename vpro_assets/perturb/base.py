@@ -16,7 +16,7 @@ import numpy as np
 
 from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.core.seeding import rng
-from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.libero.task_record import TaskRecord
 from vpro_assets.perturb.entities import EntityIndex
 from vpro_assets.perturb.phases import PhaseState
 from vpro_assets.perturb.capture import Capture, CaptureRenderer

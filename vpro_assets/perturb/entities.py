@@ -15,8 +15,8 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.libero.env import GRIPPER_PREFIX
-from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.libero.names import GRIPPER_PREFIX
+from vpro_assets.libero.task_record import TaskRecord
 
 GRIP_SITE = "gripper0_grip_site"
 LEFT_FINGER_BODIES = ("gripper0_leftfinger", "gripper0_finger_joint1_tip")

@@ -22,17 +22,22 @@ from typing import Mapping
 
 import numpy as np
 
-from vpro_assets.libero.env import CAMERAS
 from vpro_assets.core.errors import InvalidParameterError
-from vpro_assets.libero.tasks import get_task
+from vpro_assets.libero.names import CAMERAS
+from vpro_assets.libero.task_record import TaskRecord
 from vpro_assets.perturb.pipeline import ObservationPipeline, build_pipeline, image_key
 from vpro_assets.perturb.rendering import render_rgb
 
 
 class CaseObserver:
-    def __init__(self, env, case: Mapping, trial: int, pipeline: ObservationPipeline | None = None):
+    def __init__(self, env, case: Mapping, trial: int, task: TaskRecord | None = None,
+                 pipeline: ObservationPipeline | None = None):
+        if pipeline is None:
+            if task is None:
+                raise InvalidParameterError(f"case {case.get('id')}: CaseObserver needs the case's task or a pipeline")
+            pipeline = build_pipeline(case, task)
         self.env, self.case, self.trial = env, case, trial
-        self.pipeline = pipeline or build_pipeline(case, get_task(case["task"]))
+        self.pipeline = pipeline
         self._current: dict | None = None
         self._queue: dict[str, deque] = {}
 
@@ -82,5 +87,5 @@ class CaseObserver:
         return timeline
 
 
-def wrap_case_env(env, case: Mapping, trial: int) -> CaseObserver:
-    return CaseObserver(env, case, trial)
+def wrap_case_env(env, case: Mapping, trial: int, task: TaskRecord) -> CaseObserver:
+    return CaseObserver(env, case, trial, task)

@@ -15,10 +15,10 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from vpro_assets.benchmark import taxonomy as tx
-from vpro_assets.libero.env import CAMERAS
+from vpro_assets.libero.names import CAMERAS
 from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.core.errors import VProError
-from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.libero.task_record import TaskRecord
 from vpro_assets.perturb.base import Builder, Episode, MaskSource, Perturbation, Step
 from vpro_assets.perturb.capture import CaptureRenderer
 from vpro_assets.perturb.contradiction import Contradiction

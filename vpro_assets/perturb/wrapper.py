@@ -22,7 +22,7 @@ from typing import Mapping
 import numpy as np
 
 from vpro_assets.core.errors import InvalidParameterError
-from vpro_assets.libero.tasks import TaskRecord
+from vpro_assets.libero.task_record import TaskRecord
 from vpro_assets.perturb.pipeline import ObservationPipeline, build_pipeline
 
 

@@ -232,7 +232,7 @@ def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs
     wrapper = None
     if level == "observation" and render:
         try:
-            wrapper = CaseObserver(env, case, trial)
+            wrapper = CaseObserver(env, case, trial, task)
         except Exception:
             _close_quietly(env)
             raise
