@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from vpro_assets.perturb import scene_edits
 
@@ -43,10 +44,11 @@ class Capture:
     entries: list[dict]  # scene_edits snapshots, in the scene's draw order
     cameras: tuple[dict, dict]  # the scene's two GL cameras (stereo halves; equal in mono)
     generation: int  # RenderHook's capture counter when taken
+    window: tuple[int, int, int, int] | None = None  # pixels (x0, y0, x1, y1) to draw; None: nothing
 
     def key(self) -> bytes:
         """Everything the segmentation render depends on: equal keys draw equal pixels."""
-        parts = [np.array([self.camera_id, self.width, self.height], dtype=np.int64).tobytes()]
+        parts = [np.array([self.camera_id, self.width, self.height, *(self.window or (-1,) * 4)], dtype=np.int64).tobytes()]
         for cam in self.cameras:
             parts += [np.asarray(v, dtype=np.float64).tobytes() for v in cam.values()]
         for e in self.entries:
@@ -94,53 +96,147 @@ def _image_boxes(model, data, geoms: np.ndarray, camera_id: int, near: float):
                 np.nanmin(zs, 1), np.nanmax(zs, 1), in_front)
 
 
-def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candidates: np.ndarray, near: float,
-                   half_width: float, half_height: float) -> np.ndarray:
+class GeomHulls:
+    """Points in each geom's frame whose convex hull contains the geom: a mesh's convex-hull
+    vertices (scipy), the box corners of `geom_aabb` otherwise. Cached by mesh name and size, so
+    a rebuilt sim (robosuite's hard reset) reuses them."""
+
+    def __init__(self):
+        self._mesh: dict[tuple[str, int], np.ndarray] = {}
+        self._geom: dict[int, np.ndarray] = {}
+        self._model = None
+
+    def points(self, model, geom: int) -> np.ndarray:
+        if model is not self._model:  # a rebuilt sim: geom ids may have changed
+            self._model, self._geom = model, {}
+        if geom not in self._geom:
+            self._geom[geom] = self._points(model, geom)
+        return self._geom[geom]
+
+    def _points(self, model, geom: int) -> np.ndarray:
+        box = model.geom_aabb[geom, :3] + model.geom_aabb[geom, 3:] * _SIGNS
+        mesh = int(model.geom_dataid[geom])
+        if model.geom_type[geom] != mujoco.mjtGeom.mjGEOM_MESH or mesh < 0:
+            return box
+        key = (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, mesh) or str(mesh), int(model.mesh_vertnum[mesh]))
+        if key not in self._mesh:
+            adr, n = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+            verts = np.asarray(model.mesh_vert[adr:adr + n], dtype=np.float64)
+            try:
+                self._mesh[key] = verts[ConvexHull(verts).vertices]
+            except QhullError:  # flat or degenerate: its box still bounds it
+                self._mesh[key] = box
+        return self._mesh[key]
+
+
+def _hull_boxes(model, data, geoms: np.ndarray, hulls: GeomHulls, camera_id: int, near: float):
+    """Like `_image_boxes` from the geoms' hull points, tighter for round shapes; `ok` is False
+    where a point lies before the near plane (those geoms keep their clipped-box bounds)."""
+    cam_mat, cam_pos = data.cam_xmat[camera_id].reshape(3, 3), data.cam_xpos[camera_id]
+    out = np.empty((7, len(geoms)))
+    for k, g in enumerate(geoms):
+        # camera-frame points: (R_g p + x_g - c) expressed in the camera's axes
+        rot = data.geom_xmat[g].reshape(3, 3).T @ cam_mat
+        cam = hulls.points(model, int(g)) @ rot + (data.geom_xpos[g] - cam_pos) @ cam_mat
+        z = -cam[:, 2]
+        zmin = z.min()
+        zs = np.maximum(z, near)
+        u, v = cam[:, 0] / zs, cam[:, 1] / zs
+        out[:, k] = (u.min(), u.max(), v.min(), v.max(), zmin, z.max(), zmin >= near)
+    return (*out[:6], out[6].astype(bool))
+
+
+@dataclass(frozen=True)
+class View:
+    """A camera's frustum at its near plane and its image size."""
+
+    near: float
+    left: float
+    right: float
+    bottom: float
+    top: float
+    width: int
+    height: int
+
+    @classmethod
+    def of(cls, cam: dict, width: int, height: int) -> "View":
+        b, t = cam["frustum_bottom"], cam["frustum_top"]
+        hw = cam["frustum_width"] or 0.5 * width / height * (t - b)  # as mjr_render's setView
+        c = cam["frustum_center"]
+        return cls(cam["frustum_near"], c - hw, c + hw, b, t, width, height)
+
+    def pixel_window(self, u0: float, u1: float, v0: float, v1: float) -> tuple[int, int, int, int] | None:
+        """Pixel columns [x0, x1) and rows [y0, y1) (raw, bottom-up) covering the image-plane box
+        (u = x/z, v = y/z) with a pixel of margin, clipped to the image; None if outside it."""
+        pw, ph = (self.right - self.left) / self.width, (self.top - self.bottom) / self.height
+        x0 = max(int(np.floor((u0 * self.near - self.left) / pw)) - 1, 0)
+        x1 = min(int(np.ceil((u1 * self.near - self.left) / pw)) + 1, self.width)
+        y0 = max(int(np.floor((v0 * self.near - self.bottom) / ph)) - 1, 0)
+        y1 = min(int(np.ceil((v1 * self.near - self.bottom) / ph)) + 1, self.height)
+        return (x0, y0, x1, y1) if x0 < x1 and y0 < y1 else None
+
+
+def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candidates: np.ndarray, view: View,
+                   hulls: GeomHulls) -> tuple[np.ndarray, tuple[int, int, int, int] | None]:
     """Boolean per model geom: an entity geom, or one of `candidates` (the geoms the scene may
-    draw) that can cover one in this camera: its projected box overlaps the entities' footprint
-    within the view and it is not wholly behind them. Planes are always kept (unbounded, and
-    cheap to draw)."""
+    draw) that can cover one in this camera (its projected bounds overlap the entities' footprint
+    and it is not wholly behind them; planes always), and the pixel window of the footprint (None:
+    the entities are out of view, nothing to draw)."""
     out = np.zeros(model.ngeom, dtype=bool)
+    entity_geoms = np.intersect1d(entity_geoms, candidates)  # geoms the scene does not draw leave no pixel
+    if not len(entity_geoms):
+        return out, None
     out[entity_geoms] = True
     out |= model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE
-    geoms = np.union1d(candidates, entity_geoms)
-    if not len(entity_geoms):
-        return out
-    u0, u1, v0, v1, z0, z1, front = _image_boxes(model, data, geoms, camera_id, near)
+    geoms = candidates
+    u0, u1, v0, v1, z0, z1, front = _image_boxes(model, data, geoms, camera_id, view.near)
     e = np.isin(geoms, entity_geoms) & front
     if not e.any():
-        return out
-    # entities' footprint, clipped to the view
-    eu0, eu1 = max(u0[e].min(), -half_width), min(u1[e].max(), half_width)
-    ev0, ev1 = max(v0[e].min(), -half_height), min(v1[e].max(), half_height)
-    if eu0 > eu1 or ev0 > ev1:
-        return out
-    overlaps = front & (u0 <= eu1) & (u1 >= eu0) & (v0 <= ev1) & (v1 >= ev0) & (z0 <= z1[e].max())
-    out[geoms[overlaps]] = True
-    return out
+        return out, None
+
+    def refine(idx: np.ndarray) -> None:  # hull bounds where every hull point is before the camera
+        hu0, hu1, hv0, hv1, hz0, hz1, ok = _hull_boxes(model, data, geoms[idx], hulls, camera_id, view.near)
+        for arr, h in ((u0, hu0), (u1, hu1), (v0, hv0), (v1, hv1), (z0, hz0), (z1, hz1)):
+            arr[idx[ok]] = h[ok]
+
+    refine(np.flatnonzero(e))
+    window = view.pixel_window(u0[e].min(), u1[e].max(), v0[e].min(), v1[e].max())
+    if window is None:
+        return out, None
+    # the window back on the image plane: what lies outside it cannot draw on the entities' pixels
+    x0, y0, x1, y1 = window
+    pw, ph = (view.right - view.left) / view.width, (view.top - view.bottom) / view.height
+    wu0, wu1 = (view.left + x0 * pw) / view.near, (view.left + x1 * pw) / view.near
+    wv0, wv1 = (view.bottom + y0 * ph) / view.near, (view.bottom + y1 * ph) / view.near
+    far = z1[e].max()
+
+    def overlapping() -> np.ndarray:
+        return front & (u0 <= wu1) & (u1 >= wu0) & (v0 <= wv1) & (v1 >= wv0) & (z0 <= far)
+
+    refine(np.flatnonzero(overlapping() & ~e))  # boxes first (cheap), hulls for what they keep
+    out[geoms[overlapping()]] = True
+    return out, window
 
 
 def capture(ctx, model, data, camera_id: int, width: int, height: int, entity_geoms: np.ndarray,
-            generation: int, candidates: np.ndarray | None = None) -> Capture:
+            generation: int, candidates: np.ndarray | None = None, hulls: GeomHulls | None = None) -> Capture:
     """Copy, from the scene the env just drew (`ctx.scn`), the entries of the entities and of the
-    geoms that can cover them, plus every non-geom entry (few; they may cover anything)."""
+    geoms that can cover them, plus every non-geom entry (few; they may cover anything), and the
+    pixel window the entities can occupy."""
     scn = ctx.scn
-    cam = scn.camera[0]
-    near = cam.frustum_near
-    # the view's half extents on the image plane at unit depth, plus a pixel of margin each side
-    half = (cam.frustum_top - cam.frustum_bottom) / 2 / near
-    half_w, half_h = half * width / height * (1 + 2 / width), half * (1 + 2 / height)
-    if candidates is None:
-        candidates = drawable_geoms(model, ctx.vopt)
-    keep = relevant_geoms(model, data, camera_id, entity_geoms, candidates, near, half_w, half_h)
-    entries = []
-    for i in range(scn.ngeom):
-        g = scn.geoms[i]
-        if g.segid >= 0 and (g.objtype != _GEOM or keep[g.objid]):
-            entries.append(scene_edits.snapshot(g))
     cams = tuple({f: (getattr(c, f).copy() if isinstance(getattr(c, f), np.ndarray) else getattr(c, f))
                   for f in _CAMERA_FIELDS} for c in (scn.camera[0], scn.camera[1]))
-    return Capture(camera_id, width, height, entries, cams, generation)
+    if candidates is None:
+        candidates = drawable_geoms(model, ctx.vopt)
+    keep, window = relevant_geoms(model, data, camera_id, np.asarray(entity_geoms), candidates,
+                                  View.of(cams[0], width, height), hulls or GeomHulls())
+    entries = []
+    if window is not None:
+        for i in range(scn.ngeom):
+            g = scn.geoms[i]
+            if g.segid >= 0 and (g.objtype != _GEOM or keep[g.objid]):
+                entries.append(scene_edits.snapshot(g))
+    return Capture(camera_id, width, height, entries, cams, generation, window)
 
 
 class CaptureRenderer:
@@ -170,28 +266,41 @@ class CaptureRenderer:
         return ids
 
     def _draw(self, ctx, cap: Capture) -> np.ndarray:
+        ids = np.full((cap.height, cap.width), -1, dtype=np.int32)
+        if cap.window is None:
+            return ids
+        x0, y0, x1, y1 = cap.window
         scn = self.scn
         if len(cap.entries) > scn.maxgeom:
             self.scn = scn = mujoco.MjvScene(ctx.model._model, maxgeom=len(cap.entries))
         for j, snap in enumerate(cap.entries):
             scene_edits.write(scn.geoms[j], snap)
         scn.ngeom = len(cap.entries)
+        view = View.of(cap.cameras[0], cap.width, cap.height)
+        pw, ph = (view.right - view.left) / view.width, (view.top - view.bottom) / view.height
         for c, values in zip((scn.camera[0], scn.camera[1]), cap.cameras):
             for f, v in values.items():
                 if isinstance(v, np.ndarray):
                     getattr(c, f)[...] = v
                 else:
                     setattr(c, f, v)
+            if (x0, y0, x1, y1) == (0, 0, cap.width, cap.height):
+                continue  # the whole image: the env's own frustum
+            # the frustum of the window only: the same pixel centres, a viewport of the window's size
+            c.frustum_center = view.left + (x0 + x1) / 2 * pw
+            c.frustum_width = (x1 - x0) / 2 * pw
+            c.frustum_bottom, c.frustum_top = view.bottom + y0 * ph, view.bottom + y1 * ph
         scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 1
         scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 1
-        w, h = cap.width, cap.height
+        w, h = x1 - x0, y1 - y0
         if w > ctx.con.offWidth or h > ctx.con.offHeight:
             ctx.update_offscreen_size(max(w, ctx.model.vis.global_.offwidth), max(h, ctx.model.vis.global_.offheight))
         viewport = mujoco.MjrRect(0, 0, w, h)
         mujoco.mjr_render(viewport=viewport, scn=scn, con=ctx.con)
         rgb = np.empty((h, w, 3), dtype=np.uint8)
         mujoco.mjr_readPixels(rgb=rgb, depth=None, viewport=viewport, con=ctx.con)
-        return decode_ids(rgb, scn)
+        ids[y0:y1, x0:x1] = decode_ids(rgb, scn)
+        return ids
 
 
 def decode_ids(rgb: np.ndarray, scn: mujoco.MjvScene) -> np.ndarray:

@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.perturb.capture import Capture, capture, decode_ids, drawable_geoms
+from vpro_assets.perturb.capture import Capture, GeomHulls, capture, decode_ids, drawable_geoms
 
 log = logging.getLogger(__name__)
 
@@ -102,6 +102,7 @@ class RenderHook:
         self._by_id: dict[int, SceneEdit] = {}
         self._names: dict[int, str] = {}
         self._captures: dict[str, Capture] = {}
+        self._hulls = GeomHulls()
         self.generation = 0
         self.edit_seconds = 0.0  # time spent in scene edits (for the cost benchmark)
         self.capture_seconds = 0.0  # time spent copying scene entries (for the cost benchmark)
@@ -121,7 +122,8 @@ class RenderHook:
             if self.capture_geoms is not None and not segmentation and camera_id is not None and camera_id >= 0:
                 t0 = time.perf_counter()
                 self._captures[self._names[camera_id]] = capture(ctx, model, data, camera_id, width, height,
-                                                                 self.capture_geoms, self.generation, drawable)
+                                                                 self.capture_geoms, self.generation, drawable,
+                                                                 self._hulls)
                 self.capture_seconds += time.perf_counter() - t0
 
         ctx.render = hooked_render  # instance attribute shadows the class method
