@@ -3,14 +3,16 @@
 A segmentation render of the whole scene (the reference, `rendering.render_geom_ids`) costs
 about as much as the env's own camera frame on llvmpipe. Which geom is frontmost at an entity's
 pixel depends only on the entity's geoms and on the geoms that can cover them: those whose
-bounding box, projected into the camera, overlaps the entity's footprint and is not entirely
-behind it (planes are always kept). So, while
-the env renders a camera (`RenderHook` calls `capture`), the scene entries of the entities and of
-those possible occluders are copied from the very `MjvScene` the env just drew (same state, same
-camera; the policy's frame and the mask can never disagree), and only when a mask is asked for
-are they drawn in MuJoCo's segmentation mode into a scene of their own. The result equals the
-full-scene segmentation at every pixel of the entities: depth tests between the geoms drawn are
-the same, and a geom that was left out could not have drawn on those pixels.
+bounds, projected into the camera, overlap the entity's footprint and are not entirely behind it
+(bounds: the geom's box clipped to the near plane, tightened by its convex-hull points where it
+lies wholly in front; planes are always kept). So, while the env renders a camera (`RenderHook`
+calls `capture`), the scene entries of the entities and of those possible occluders are copied
+from the very `MjvScene` the env just drew (same state, same camera: the policy's frame and the
+mask cannot disagree), with the pixel window the entities can occupy. Only when a mask is asked
+for are they drawn, in MuJoCo's segmentation mode, into a scene of their own, through a frustum
+narrowed to that window (the same pixel centres, a viewport of the window's size). The result
+equals the full-scene segmentation at every pixel of the entities: depth tests between the geoms
+drawn are the same, and a geom that was left out could not have drawn on those pixels.
 
 Why not the depth of the env's colour pass (compared with an entity-only pass)? LIBERO renders
 with 4x multisampling; the resolved depth is the depth at one sub-pixel sample (measured: offset
