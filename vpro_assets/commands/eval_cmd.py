@@ -48,6 +48,9 @@ def add_parser(sub) -> None:
     p.add_argument("--retries", type=int, default=2, help="extra attempts after an infrastructure error (default 2)")
     p.add_argument("--retry-delay", type=float, default=2.0, help="seconds before a retry, times the attempt (default 2)")
     p.add_argument("--video", type=Path, metavar="DIR", help="write one mp4 per episode (clean | policy views)")
+    p.add_argument("--no-render", action="store_true",
+                   help="render-free episodes: no renderer, no cameras (policies that act from simulator state: "
+                        "oracle, noop, random); same seeding, success check and rows")
     p.add_argument("--no-progress", action="store_true", help="no progress line")
     p.set_defaults(run=run_eval_cmd)
 
@@ -91,7 +94,8 @@ def run_eval_cmd(args) -> int:
         raise VProError(f"--retries must be 0 or more, got {args.retries}")
     override, per_suite = parse_max_steps(args.max_steps)
     settings = EpisodeSettings(resolution=args.resolution, wait_steps=args.wait_steps, max_steps=per_suite,
-                               max_steps_override=override, video_dir=str(args.video) if args.video else None)
+                               max_steps_override=override, video_dir=str(args.video) if args.video else None,
+                               render=not args.no_render)
     catalog = load_catalog(paths.catalog_path())
     cases = select_cases(catalog, args.select)
     if not cases:

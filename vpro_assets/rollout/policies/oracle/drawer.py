@@ -1,10 +1,15 @@
 """Open and close a drawer by its handle, along the slide joint's axis.
 
 Opening: the handle is the part of the drawer that sticks out farthest along the opening direction
-(the joint's world axis, signed toward the open end of its range). The fingers, pre-closed to fit
-between handle and front panel, come down around it, close, and pull along the axis until LIBERO's
-`Open` check holds. Closing: the closed fingers push on the handle along the axis until LIBERO's
-`Close` check holds (the cabinets count as closed only once pushed fully home).
+(the joint's world axis, signed toward the open end of its range). The hand turns to face the
+drawer (pointing against the opening direction, fingers closing vertically) in front of the handle,
+moves onto it, closes on it and pulls along the axis until LIBERO's `Open` check holds. Facing the
+drawer matters: the handles of a cabinet's drawers stand one above the other, so a hand coming down
+from above meets the handle over the one it wants. Closing: the closed fingers, facing the drawer
+the same way but closing horizontally (the hand's long side then stays off the table in front of a
+bottom drawer), push on the handle along the axis until LIBERO's `Close` check holds (the cabinets
+count as closed only once pushed fully home, where a hand pointing down would hit the handles
+above).
 """
 from __future__ import annotations
 
@@ -13,14 +18,14 @@ import numpy as np
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import Joint, joint_for
-from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 HANDLE_DEPTH_M = 0.012  # geoms within this of the outermost point along the axis form the handle
-PRESHAPE_GAP_M = 0.035  # finger opening while coming down around the handle
 PULL_STEPS = 160
 PUSH_STANDOFF_M = 0.03
+FRONT_M = 0.12  # where the hand turns to face the drawer, in front of the handle
+ABOVE_M = 0.06
 
 
 def open_direction(world: World, joint: Joint) -> np.ndarray:
@@ -39,11 +44,27 @@ def handle_point(world: World, joint: Joint) -> np.ndarray:
     return (pts.min(0) + pts.max(0)) / 2
 
 
-def _preshape(world: World, gap: float, orient) -> motion.Actions:
-    for _ in range(20):
-        if world.finger_gap() <= gap:
-            break
-        yield motion.action_to(world, world.eef(), CLOSE, orient)
+def face_handle(world: World, joint: Joint, grip: float, standoff: float, vertical: bool) -> Actions:
+    """Bring the hand, facing the drawer, to `standoff` in front of the handle; the orientation.
+    `vertical`: the fingers close vertically (to pinch a horizontal bar); else horizontally, which
+    keeps the hand's long side off the table in front of a bottom drawer."""
+    axis = open_direction(world, joint)
+    handle = handle_point(world, joint)
+    fingers = np.array([0.0, 0.0, 1.0]) if vertical else np.cross(axis, [0.0, 0.0, 1.0])
+    orient = motion.facing(-axis, fingers, world.eef_mat())
+    front = handle + axis * FRONT_M
+    yield from motion.move_to(world, front + [0, 0, ABOVE_M], grip, None, tol=0.015, max_steps=120)
+    yield from motion.move_to(world, front, grip, orient, tol=0.012, max_steps=120)
+    yield from motion.move_to(world, handle + axis * standoff, grip, orient, tol=0.008, max_steps=80, speed=0.5)
+    return orient
+
+
+def leave(world: World, joint: Joint, grip: float) -> Actions:
+    """Back away from the drawer and point the hand down again."""
+    axis = open_direction(world, joint)
+    down = motion.down_with_yaw(float(np.arctan2(axis[1], axis[0])))
+    yield from motion.move_to(world, world.eef() + axis * 0.08, grip, None, tol=0.015, max_steps=40)
+    yield from motion.move_to(world, world.eef() + [0, 0, ABOVE_M], grip, down, tol=0.02, max_steps=80)
 
 
 def open_(world: World, region: str, attempts: int = 2) -> Actions:
@@ -53,11 +74,7 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
         if world.holds(goal):
             return
         axis = open_direction(world, joint)
-        handle = handle_point(world, joint)
-        orient = grasp_orientation(world, axis)
-        yield from motion.move_to(world, handle + [0, 0, 0.08], OPEN, orient, tol=0.012, max_steps=150)
-        yield from _preshape(world, PRESHAPE_GAP_M, orient)
-        yield from motion.move_to(world, handle, 0.0, orient, tol=0.006, max_steps=80, speed=0.5)
+        orient = yield from face_handle(world, joint, OPEN, 0.0, vertical=True)
         yield from motion.gripper(world, CLOSE, orient=orient)
         travel = abs(joint.open_end - world.qpos(joint.id))
         start = world.eef()
@@ -66,8 +83,7 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
                 break
             yield motion.action_to(world, start + axis * (travel + 0.01), CLOSE, orient, speed=0.5)
         yield from motion.gripper(world, OPEN, orient=orient)
-        yield from motion.move_to(world, world.eef() - axis * 0.03 + [0, 0, 0.06], OPEN, orient, tol=0.015,
-                                  max_steps=40)
+        yield from leave(world, joint, OPEN)
     if not world.holds(goal):
         raise SkillFailed(f"{region} did not open (joint at {world.qpos(joint.id):.3f})")
 
@@ -78,17 +94,14 @@ def close(world: World, region: str) -> Actions:
     if world.holds(goal):
         return
     axis = open_direction(world, joint)
-    handle = handle_point(world, joint)
-    orient = world.eef_mat()
-    start = handle + axis * PUSH_STANDOFF_M
-    yield from motion.move_to(world, start + [0, 0, 0.08], CLOSE, orient, tol=0.012, max_steps=150)
-    yield from motion.move_to(world, start, CLOSE, orient, tol=0.008, max_steps=80, speed=0.6)
+    yield from motion.gripper(world, CLOSE)
+    orient = yield from face_handle(world, joint, CLOSE, PUSH_STANDOFF_M, vertical=False)
+    start = world.eef()
     travel = abs(world.qpos(joint.id) - joint.closed_end)
     for _ in range(PULL_STEPS):
         if world.holds(goal):
             break
         yield motion.action_to(world, start - axis * (travel + PUSH_STANDOFF_M + 0.02), CLOSE, orient, speed=0.6)
-    yield from motion.move_to(world, world.eef() + axis * 0.03 + [0, 0, 0.05], CLOSE, orient, tol=0.015,
-                              max_steps=30)
+    yield from leave(world, joint, CLOSE)
     if not world.holds(goal):
         raise SkillFailed(f"{region} did not close (joint at {world.qpos(joint.id):.3f})")

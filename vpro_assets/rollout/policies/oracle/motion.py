@@ -37,6 +37,20 @@ def down_with_yaw(yaw: float) -> np.ndarray:
     return quat_matrix(axis_angle_quat([0, 0, 1], yaw)) @ DOWN
 
 
+def facing(approach, fingers, current: np.ndarray | None = None) -> np.ndarray:
+    """Hand orientation pointing along `approach` with the fingers closing along `fingers`
+    (perpendicular unit vectors); of the two finger signs, the one nearer `current`."""
+    a = np.asarray(approach, dtype=float) / np.linalg.norm(approach)
+    best, best_angle = None, np.inf
+    for sign in (1.0, -1.0):
+        f = sign * np.asarray(fingers, dtype=float) / np.linalg.norm(fingers)
+        mat = np.column_stack([f, np.cross(a, f), a])
+        angle = 0.0 if current is None else float(np.linalg.norm(rotation_error(current, mat)))
+        if angle < best_angle:
+            best, best_angle = mat, angle
+    return best
+
+
 def rotation_error(current: np.ndarray, goal: np.ndarray) -> np.ndarray:
     """Axis-angle (world frame) of the rotation taking `current` to `goal`."""
     q = np.zeros(4)

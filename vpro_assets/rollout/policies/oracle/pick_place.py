@@ -13,10 +13,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
+from vpro_assets.rollout.policies.oracle.articulation import joint_for, owner_of
+from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
 from vpro_assets.rollout.policies.oracle.grasp import pick
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
@@ -25,6 +28,8 @@ CLEAR_M = 0.04  # the held object's bottom this far above every obstacle on the 
 MAX_CARRY_ABOVE_TABLE_M = 0.45  # highest grip site the arm reaches comfortably, above the table
 RELEASE_ABOVE_M = 0.012  # release when the object's bottom is this close to the destination surface
 RETREAT_M = 0.10
+CARRY_SPEED = 0.6  # a held object (a bowl pinched at its wall) slips under full-speed jerks
+DRAWER_FRONT_M = 0.03  # a drawer's front panel lies this far behind its handle
 
 
 @dataclass(frozen=True)
@@ -50,8 +55,20 @@ def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
     owner = max((i for i in instances if arg.startswith(i + "_")), key=len, default=arg)
     center = world.site_pos(arg)
     xy = center[:2].copy()
+    if relation == "in" and _drawer_region(world, arg):
+        # Into an open drawer: just behind its front panel, where the drawer is out of the cabinet.
+        joint = joint_for(world, arg)
+        axis = open_direction(world, joint)
+        radius = float(np.max(world.box(held).size[:2])) / 2
+        xy = (handle_point(world, joint) - axis * (DRAWER_FRONT_M + radius + 0.015))[:2]
     surface = support_height(world, xy, exclude=(held,))
     return Destination(xy, surface, owner, relation)
+
+
+def _drawer_region(world: World, arg: str) -> bool:
+    owner = owner_of(world, arg)
+    return owner in dict(world.task.fixtures) and any(
+        world.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE for j in world.joints_of(owner))
 
 
 def support_height(world: World, xy: np.ndarray, exclude: tuple[str, ...] = (), radius: float = 0.02) -> float:
@@ -88,10 +105,19 @@ def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()
     top = corridor_top(world, start, xy, radius + 0.02, exclude=(held, *exclude))
     z = min(max(top + CLEAR_M + hang, world.eef()[2]), world.table_z + MAX_CARRY_ABOVE_TABLE_M)
     orient = world.eef_mat()
-    yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, orient, tol=0.015, max_steps=60)
+    yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, orient, tol=0.015, max_steps=80, speed=CARRY_SPEED)
     for _ in range(3):  # re-aim as the held object swings
+        check_held(world, held, hang)
         offset = world.eef()[:2] - world.body_pos(held)[:2]
-        yield from motion.move_to(world, [*(xy + offset), z], CLOSE, orient, tol=0.01, max_steps=120)
+        yield from motion.move_to(world, [*(xy + offset), z], CLOSE, orient, tol=0.01, max_steps=120,
+                                  speed=CARRY_SPEED)
+    check_held(world, held, hang)
+
+
+def check_held(world: World, held: str, hang: float) -> None:
+    """SkillFailed when the object has slipped out of the fingers."""
+    if world.eef()[2] - world.box(held).lo[2] > hang + 0.03 or world.finger_gap() < 0.002:
+        raise SkillFailed(f"{held} slipped out of the gripper")
 
 
 def lower_and_release(world: World, held: str, dest: Destination) -> Actions:
@@ -115,7 +141,5 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions
     yield from pick(world, held)
     dest = resolve(world, relation, dest_arg, held)
     yield from carry(world, held, dest.xy)
-    if not world.held(held) and world.body_pos(held)[2] < dest.surface_z:
-        raise SkillFailed(f"{held} dropped while carried")
     yield from lower_and_release(world, held, dest)
 
