@@ -14,13 +14,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from vpro_assets.rollout.policies.oracle import motion
+from vpro_assets.rollout.policies.oracle.clearance import lift_clear
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 MAX_PINCH_M = 0.072  # widest object the open fingers (about 8 cm) take across
 WALL_INSET_M = 0.012  # the fingers' centre this far inside an object's outer wall
-WALL_DEPTH_M = 0.025  # a wall is pinched this far below its top
-HOVER_M = 0.08  # approach height above the grasp point
+WALL_DEPTH_M = 0.035  # a wall is pinched this far below its top (deep: a shallow pinch lets a bowl swing out)
+HOVER_M = 0.08
+CLEAR_ABOVE_TABLE_M = 0.40  # overhangs below this height over a grasped object are slid out from under  # approach height above the grasp point
 LIFT_M = 0.10  # lift after closing, before any carry
 MIN_LIFT_M = 0.02  # the object counts as lifted when it rose this much
 TABLE_CLEARANCE_M = 0.008  # grip site at least this high above the object's bottom
@@ -63,7 +65,7 @@ def plan_grasp(world: World, instance: str) -> Grasp:
     toward /= np.linalg.norm(toward)
     proj = (pts[:, :2] - center[:2]) @ toward[:2]
     point = center + toward * (proj.max() - WALL_INSET_M)
-    point[2] = hi[2] - min(WALL_DEPTH_M, height / 2)
+    point[2] = max(hi[2] - WALL_DEPTH_M, lo[2] + 0.4 * height)
     return Grasp(point, toward, 2 * WALL_INSET_M, rim=True)
 
 
@@ -87,6 +89,7 @@ def pick(world: World, instance: str, attempts: int = 3) -> Actions:
         yield from motion.move_to(world, grasp.point + [0, 0, HOVER_M], OPEN, orient, tol=0.01, max_steps=60)
         yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.006, max_steps=80, speed=0.6)
         yield from motion.gripper(world, CLOSE, orient=orient)
+        yield from lift_clear(world, instance, world.table_z + CLEAR_ABOVE_TABLE_M)
         yield from motion.move_to(world, world.eef() + [0, 0, LIFT_M], CLOSE, orient, tol=0.015, max_steps=60,
                                   speed=0.5)
         if world.body_pos(instance)[2] - start_z > MIN_LIFT_M and world.finger_gap() > 0.002:
