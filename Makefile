@@ -7,7 +7,7 @@ STAMP := $(VENV)/.vpro-installed
 VPRO := $(VENV)/bin/vpro
 HF_LIBERO := hf-libero==0.1.4
 
-.PHONY: setup run test test-slow lint system-packages clean-venv
+.PHONY: setup run test test-slow lint wheel system-packages clean-venv
 
 setup: system-packages $(STAMP)
 
@@ -17,7 +17,7 @@ system-packages:
 $(STAMP): pyproject.toml Makefile
 	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install --quiet --upgrade pip wheel setuptools
-	$(VENV)/bin/pip install --quiet -e '.[test,plots,lint,vla-eval]'
+	$(VENV)/bin/pip install --quiet -e '.[sim,ray,test,plots,lint,vla-eval]'
 	# LIBERO's simulation code without its training stack (torch, wandb, transformers).
 	$(VENV)/bin/pip install --quiet --no-deps $(HF_LIBERO)
 	# robosuite's own recommended step (scripts/setup_macros.py, which prompts): a private macros
@@ -69,6 +69,13 @@ test: setup
 
 test-slow: setup
 	$(VENV)/bin/python -m pytest -m slow
+
+# The toolkit as a wheel file (dist/ by default), for a fork's own environment: its base install
+# needs only numpy, mujoco, opencv-python, scipy, pyyaml and tqdm, which LIBERO forks already have
+# (docs/packs.md); the simulator pins and Ray are the extras `sim` and `ray`.
+WHEEL_DIR ?= dist
+wheel:
+	$(PYTHON) -m pip wheel --quiet --no-deps --wheel-dir $(WHEEL_DIR) .
 
 clean-venv:
 	rm -rf $(VENV)

@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from fork_obs import check_obs_report, fork_config, run_obs_check, write_obs_pack
 
 from vpro_assets.core import paths
 from vpro_assets.benchmark.catalog import load_catalog
@@ -96,3 +97,15 @@ def test_clashing_names_are_refused_and_registries_unchanged(fork_python, pack, 
     assert report["error"] and "nothing was changed" in report["error"]
     assert "'akita_black_bowl'" in report["error"] and "'libero_spatial'" in report["error"]
     assert report["unchanged"]
+
+
+def test_fork_runs_every_observation_category_after_wrap(fork_python, tmp_path):
+    """robosuite 1.4 fork, no toolkit: the pack's own `vpro_libero_fork.wrap` and `reset` run one
+    case of every observation category in the fork's loop (fork_obs.check_obs_report says what each
+    must show, the staleness case's delayed frame included); the fork's LIBERO config keeps its
+    bytes and nothing is written in its home or working folder."""
+    python, _ = fork_python
+    pack = write_obs_pack(tmp_path / "obs-pack")
+    report = run_obs_check(python, fork_config(python, tmp_path / "fork-config"), pack, tmp_path / "run")
+    assert report["robosuite"].startswith("1.4")
+    check_obs_report(report)

@@ -18,10 +18,24 @@ A name already registered for something else (one of LIBERO's objects or suites,
 pack's) is refused with `PackRegistrationError` and the registries are left as they were;
 registering the same pack again is a no-op.
 
-This file is self-contained on purpose (standard library plus LIBERO and what LIBERO imports): it
-is copied into every pack as `vpro_libero_fork.py`, so a fork needs neither the toolkit nor its
-generators. The task's problem_folder is the absolute path of the pack's suite folder, which
-`os.path.join` and `pathlib` both let replace the fork's `bddl_files` root.
+Observation-level cases (masking, corruption, view loss, staleness, contradiction, prediction
+feedback) are applied around the fork's own env:
+
+    env = vpro_libero_fork.wrap(env, case)        # case dict, the pack's case JSON path, or a case id
+    for trial in range(10):
+        obs = vpro_libero_fork.reset(env, case, trial, init_states)   # seed, reset, initial state
+        ...                                                           # the fork's loop, unchanged
+
+`reset` seeds LIBERO's global numpy stream with the trial's seed (`env.seed`, as the toolkit's
+rollouts do) before the reset, so fixtures land where the frozen scenes were settled.
+
+In a pack this file is `vpro_libero_fork.py`, next to the private package of the toolkit's own
+perturbation code, copied by `vpro_assets.packs.vendor` with its imports renamed (this file's
+included), so a fork needs neither the toolkit nor its pins: numpy, mujoco, cv2 and scipy (robosuite's
+dependencies), LIBERO and robosuite. Nothing here writes a file, reads the toolkit's config or
+LIBERO's, except that `register` extracts an archive beside it. The task's problem_folder is the
+absolute path of the pack's suite folder, which `os.path.join` and `pathlib` both let replace the
+fork's `bddl_files` root.
 """
 from __future__ import annotations
 
@@ -29,7 +43,12 @@ import hashlib
 import json
 import os
 import tarfile
+from collections.abc import Mapping
 from pathlib import Path
+
+from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.libero.task_record import TaskRecord
+from vpro_assets.perturb.observer import CaseObserver
 
 SUPPORTED_SCHEMA = 1
 MANIFEST = "manifest.json"
@@ -213,3 +232,106 @@ def unregister(pack: str | os.PathLike) -> None:
     for key, cls in list(benchmark.BENCHMARK_MAPPING.items()):
         if getattr(cls, "_vpro_pack_id", None) == pack_id:
             del benchmark.BENCHMARK_MAPPING[key]
+
+
+def pack_root() -> Path:
+    """The pack this module was loaded from (in the toolkit: its own folder, which holds no cases)."""
+    return Path(__file__).resolve().parent
+
+
+def load_case(case: Mapping | str | os.PathLike, root: Path | None = None) -> dict:
+    """A case: a dict as is, a case JSON file, or a case id looked up in the pack's cases/."""
+    if isinstance(case, Mapping):
+        return dict(case)
+    path = Path(case)
+    if path.suffix == ".json" and path.is_file():
+        return json.loads(path.read_text(encoding="utf-8"))
+    root = root or pack_root()
+    for candidate in sorted((root / "cases").glob("*/*.json")):
+        data = json.loads(candidate.read_text(encoding="utf-8"))
+        if data.get("id") == str(case):
+            return data
+    raise InvalidParameterError(f"case {str(case)!r}: not a case JSON file nor a case of the pack at {root}")
+
+
+class ForkEnv:
+    """A fork's LIBERO env whose observations follow an observation-level case.
+
+    Keeps LIBERO's `reset()`, `set_init_state(state)` and `step(action)` and returns raw
+    (bottom-up) frames, so the fork's own flips and resizes still apply. The trial (which seeds the
+    case's random streams) is the number of earlier `reset()` calls unless `env.trial` is set or
+    `reset(env, case, trial)` is used. Under single-view View Unavailability the removed camera's
+    key is absent from the observation (`available_cameras` lists what the policy receives).
+    """
+
+    def __init__(self, env, case: Mapping | str | os.PathLike):
+        if not all(hasattr(env, m) for m in ("reset", "step", "set_init_state", "sim")):
+            raise InvalidParameterError(f"wrap() needs a LIBERO env (OffScreenRenderEnv), got {type(env).__name__}")
+        self.env = env
+        self.case = load_case(case)
+        case_id = self.case.get("id", "<case>")
+        if self.case.get("level") != "observation":
+            raise InvalidParameterError(f"case {case_id}: level {self.case.get('level')!r}, it changes the scene: build "
+                                        "its env from the pack's BDDL instead of wrapping the base task's env")
+        if "task_record" not in self.case:
+            raise InvalidParameterError(f"case {case_id}: no task_record; pass the pack's case JSON or its id")
+        self.task = TaskRecord.from_json(self.case["task_record"])
+        self.trial = 0
+        self._observer: CaseObserver | None = None
+
+    def __getattr__(self, name):
+        if name in ("env", "case", "_observer"):
+            raise AttributeError(name)
+        return getattr(self.env, name)
+
+    @property
+    def available_cameras(self) -> tuple[str, ...]:
+        return self._require().available_cameras
+
+    def _require(self) -> CaseObserver:
+        if self._observer is None:
+            raise InvalidParameterError(f"case {self.case['id']}: call reset() before using the env")
+        return self._observer
+
+    def reset(self):
+        raw = self.env.reset()
+        self._observer = CaseObserver(self.env, self.case, self.trial, self.task)
+        self.trial += 1
+        return self._observer.on_reset(raw)
+
+    def set_init_state(self, state):
+        # LIBERO's loops set the initial state right after reset: the episode (step 0) starts here.
+        return self._require().on_reset(self.env.set_init_state(state))
+
+    def step(self, action, predicted_frames: Mapping | None = None):
+        observer = self._require()
+        observer.feed_predicted(predicted_frames)
+        raw, reward, done, info = self.env.step(action)
+        return observer.on_step(raw), reward, done, info
+
+    def phase_timeline(self) -> dict:
+        return self._require().phase_timeline()
+
+
+def wrap(env, case: Mapping | str | os.PathLike) -> ForkEnv:
+    """Wrap a fork's LIBERO env so its observations follow `case` (an observation-level case)."""
+    return ForkEnv(env, case)
+
+
+def reset(env, case: Mapping | str | os.PathLike, trial: int, init_states=None):
+    """Start trial `trial` of `case` as the frozen scenes expect: `env.seed(case's trial seed)`,
+    `env.reset()`, then (with `init_states`, the suite's `get_task_init_states(i)`) row `trial`.
+    `env` is the fork's env or `wrap`'s; return the first observation (perturbed when wrapped)."""
+    case = load_case(case)
+    seeds = case.get("trial_seeds") or []
+    if not isinstance(trial, int) or not 0 <= trial < len(seeds):
+        raise InvalidParameterError(f"case {case.get('id')}: trial {trial!r} out of range (0..{len(seeds) - 1})")
+    if isinstance(env, ForkEnv):
+        env.trial = trial
+    env.seed(int(seeds[trial]))
+    obs = env.reset()
+    if init_states is not None:
+        if not 0 <= trial < len(init_states):
+            raise InvalidParameterError(f"case {case.get('id')}: trial {trial} but {len(init_states)} initial states")
+        obs = env.set_init_state(init_states[trial])
+    return obs

@@ -23,9 +23,12 @@ class PackError(VProError):
 
 
 def file_entries(root: Path) -> dict[str, dict]:
-    """{relative path: {sha256, size}} of every file under `root` except the manifest."""
+    """{relative path: {sha256, size}} of every file under `root` except the manifest and Python's
+    bytecode caches (a fork importing the pack's modules writes `__pycache__/` beside them)."""
     entries = {}
     for path in sorted(p for p in root.rglob("*") if p.is_file()):
+        if "__pycache__" in path.relative_to(root).parts:
+            continue
         rel = path.relative_to(root).as_posix()
         if rel != MANIFEST:
             entries[rel] = {"sha256": sha256_file(path), "size": path.stat().st_size}

@@ -4,7 +4,8 @@
 <pack>/
   manifest.json                     every other file's sha256 and size; suites, objects, provenance
   README.md                         how to register the pack in a LIBERO fork
-  vpro_libero_fork.py               the registration module (self-contained)
+  vpro_libero_fork.py               registration and observation wrapper (packs/fork_runtime.py, imports renamed)
+  _vpro_runtime/                    the toolkit's perturbation code it imports (packs/vendor.py)
   taxonomy.json                     dimensions, categories, settings
   cases/<suite>/<name>.json         each case's spec (catalog record + where its files are)
   bddl_files/<suite>/<name>.bddl    LIBERO BDDL, one per case
@@ -12,8 +13,8 @@
   assets/<object>/...               generated objects (MJCF + meshes), referenced relatively
 ```
 One suite per category, named `vpro_<category>`; a case's task name is `<task>__<setting name>`.
-Observation-level cases carry the base task's BDDL and LIBERO's initial states unchanged (the
-perturbation is applied at run time by `vpro_assets.wrap(env, case)`).
+Observation-level cases carry the base task's BDDL and LIBERO's initial states unchanged, and their
+task record; the perturbation is applied at run time by `vpro_libero_fork.wrap(env, case)`.
 """
 from __future__ import annotations
 
@@ -31,11 +32,12 @@ from vpro_assets.core.hashing import canonical_json, mjcf_tree_files
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.tasks import libero_instruction
 from vpro_assets.objects.registry import content_sha256
-from vpro_assets.packs import archive
+from vpro_assets.packs import archive, vendor
 from vpro_assets.packs import manifest as mf
 from vpro_assets.packs.manifest import PackError
+from vpro_assets.packs.wrap import with_task_record
 
-FORK_MODULE = "vpro_libero_fork.py"
+FORK_MODULE = vendor.FORK_MODULE
 README = """# LIBERO-VPro pack
 
 Register this pack inside any LIBERO installation (one call), then run its suites with the fork's
@@ -49,8 +51,9 @@ from libero.libero import benchmark
 suite = benchmark.get_benchmark_dict()["<suite>"]()
 ```
 
-Suites: {suites}. Observation-level cases need `vpro_assets.wrap(env, case)` around the env
-(see docs/packs.md of libero-vpro). `manifest.json` lists every file with its sha256;
+Suites: {suites}. Observation-level cases: `env = vpro_libero_fork.wrap(env, case)` around the
+fork's env, and `vpro_libero_fork.reset(env, case, trial, init_states)` to seed and reset as the
+frozen scenes expect (see docs/packs.md of libero-vpro). `manifest.json` lists every file with its sha256;
 `vpro pack verify <this folder>` checks them.
 """
 
@@ -124,14 +127,14 @@ def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> Non
                 objects[obj["name"]] = {k: v for k, v in obj.items() if k != "dir"} | {
                     "xml": f"assets/{obj['name']}/{obj['xml']}"}
         language = libero_instruction(case["task_name"])
-        spec = dict(case, pack={"suite": suite, "name": name, "instruction": language,
+        spec = dict(with_task_record(case, catalog), pack={"suite": suite, "name": name, "instruction": language,
                                 "bddl": f"bddl_files/{suite}/{name}.bddl",
                                 "init_states": f"init_files/{suite}/{name}.pruned_init"})
         (root / "cases" / suite).mkdir(parents=True, exist_ok=True)
         (root / "cases" / suite / f"{name}.json").write_text(canonical_json(spec))
         suites.setdefault(suite, []).append({"name": name, "language": language, "case": case["id"]})
     (root / "taxonomy.json").write_text(canonical_json({k: catalog[k] for k in ("dimensions", "categories", "settings")}))
-    (root / FORK_MODULE).write_bytes((Path(__file__).resolve().parent / "fork_runtime.py").read_bytes())
+    vendor.write_runtime(root)
     (root / "README.md").write_text(README.format(suites=", ".join(f"`{s}`" for s in sorted(suites))))
     _check_no_absolute_paths(root)
     files = mf.file_entries(root)
