@@ -1,21 +1,23 @@
 """Episodes per hour through vla-eval against `vpro eval`, on the same cases, side by side.
 
-Each round runs the same episodes twice, alternating the order from round to round so a change of
-load on the machine falls on both paths:
-- `vpro eval --policy noop` (the policy in-process, queried once per chunk);
-- `vla-eval run --no-docker` with `ScriptedModelServer` answering LIBERO's no-op, one websocket round
-  trip per step with both views PNG-encoded, as every vla-eval model server is driven.
+Both paths run the same episodes at the same time (one process tree each, competing for the same
+cores), and each path's cost is the CPU time of its processes, sampled with psutil until they exit
+(on a machine shared with other work, wall time measures the scheduler, CPU time the work):
+- `vpro eval --policy noop` (the policy in-process, queried once per chunk), its CLI and worker;
+- `vla-eval run --no-docker` and `ScriptedModelServer` answering LIBERO's no-op: one websocket
+  round trip per step with both views PNG-encoded (vla-eval's default), as every vla-eval model
+  server is driven; the server's CPU counts for vla-eval;
+- the same with `params.image_format: raw` (images sent unencoded).
 The no-op never succeeds, so every episode runs the suite's full step limit (220 for libero_spatial).
-Reported: wall time of each command (process start, env build, episodes) and the mean per-episode
-time each path records (its own `wall_time`: env reset, wait steps and policy steps).
+Episodes per hour are per core: 3600 / (CPU seconds per episode).
 
-    nice -n 10 .venv/bin/python scripts/bench_vla_eval.py --rounds 2 --out out/bench/vla-eval
+    nice -n 10 .venv/bin/python scripts/bench_vla_eval.py --rounds 1 --out out/bench/vla-eval
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
-import os
 import socket
 import sqlite3
 import subprocess
@@ -24,11 +26,13 @@ import time
 import urllib.request
 from pathlib import Path
 
+import psutil
 import yaml
 
 BENCHMARK = "vpro_assets.integrations.vla_eval.benchmark:LiberoVProBenchmark"
 CASES = ["libero_spatial-00/normal", "libero_spatial-00/camera_staleness/wrist-delay2-v1"]
 BIN = Path(sys.executable).parent
+PATHS = ("vpro", "vla", "vla-raw")  # vla: vla-eval's default PNG images; vla-raw: params.image_format raw
 
 
 def free_port() -> int:
@@ -52,69 +56,115 @@ def start_server(log: Path) -> tuple[subprocess.Popen, str]:
     raise SystemExit(f"model server did not start; see {log}")
 
 
-def run_vpro(out: Path, trials: int) -> tuple[float, list[float]]:
-    db = out / "vpro.sqlite"
-    cmd = [str(BIN / "vpro"), "eval", "--policy", "noop", "--trials", str(trials), "--workers", "1", "--results", str(db)]
+def cpu_seconds(proc: psutil.Process) -> float:
+    t = proc.cpu_times()
+    return t.user + t.system
+
+
+class Tree:
+    """CPU seconds of a process and all its descendants, sampled until the root exits."""
+
+    def __init__(self, popen: subprocess.Popen):
+        self.popen, self.root = popen, psutil.Process(popen.pid)
+        self.seen: dict[int, float] = {}
+        self.started, self.ended = time.monotonic(), None
+
+    def sample(self) -> None:
+        try:
+            procs = [self.root, *self.root.children(recursive=True)]
+        except psutil.NoSuchProcess:
+            return
+        for p in procs:
+            with contextlib.suppress(psutil.NoSuchProcess):
+                self.seen[p.pid] = max(self.seen.get(p.pid, 0.0), cpu_seconds(p))
+
+    @property
+    def cpu(self) -> float:
+        return sum(self.seen.values())
+
+
+def vpro_cmd(out: Path, trials: int) -> list[str]:
+    cmd = [str(BIN / "vpro"), "eval", "--policy", "noop", "--trials", str(trials), "--workers", "1",
+           "--results", str(out / "vpro.sqlite")]
     for c in CASES:
         cmd += ["--select", c]
-    t0 = time.monotonic()
-    subprocess.run(cmd, check=True, capture_output=True)
-    wall = time.monotonic() - t0
-    con = sqlite3.connect(db)
-    times = [r[0] for r in con.execute("SELECT wall_time FROM episodes WHERE status = 'ok'")]
-    con.close()
-    return wall, times
+    return cmd
 
 
-def run_vla(out: Path, url: str, trials: int) -> tuple[float, list[float]]:
+def vla_cmd(out: Path, url: str, trials: int, image_format: str) -> list[str]:
     config = out / "config.yaml"
+    params = {"select": CASES, "image_format": image_format}
     config.write_text(yaml.safe_dump({"benchmarks": [{"benchmark": BENCHMARK, "subname": "bench", "mode": "sync",
-                                                      "episodes_per_task": trials, "params": {"select": CASES}}]}))
-    t0 = time.monotonic()
-    subprocess.run([str(BIN / "vla-eval"), "run", "--no-docker", "-c", str(config), "--server-url", url,
-                    "--output-dir", str(out / "results")], check=True, capture_output=True)
-    wall = time.monotonic() - t0
-    db = next((out / "results").glob("recording-*.sqlite"))
-    con = sqlite3.connect(db)
-    times = [json.loads(m)["wall_time"] for (m,) in con.execute("SELECT metrics FROM episode_results WHERE status != 'error'")]
+                                                      "episodes_per_task": trials, "params": params}]}))
+    return [str(BIN / "vla-eval"), "run", "--no-docker", "-c", str(config), "--server-url", url,
+            "--output-dir", str(out / "results")]
+
+
+def episodes(path: str, out: Path) -> list[dict]:
+    if path == "vpro":
+        con = sqlite3.connect(out / "vpro.sqlite")
+        rows = [{"case": c, "steps": n, "status": s} for c, n, s in con.execute("SELECT case_id, steps, status FROM episodes")]
+    else:
+        con = sqlite3.connect(next((out / "results").glob("recording-*.sqlite")))
+        rows = [{"case": json.loads(m).get("case_id"), "steps": n, "status": s}
+                for m, n, s in con.execute("SELECT metrics, steps, status FROM episode_results")]
     con.close()
-    return wall, times
+    return rows
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--rounds", type=int, default=1)
     ap.add_argument("--trials", type=int, default=1, help="trials per case per round")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     server, url = start_server(args.out / "server.log")
+    sproc = psutil.Process(server.pid)
     rows = []
     try:
         for rnd in range(args.rounds):
-            order = ["vpro", "vla"] if rnd % 2 == 0 else ["vla", "vpro"]
-            for path in order:
-                d = args.out / f"round{rnd}-{path}"
+            dirs = {p: args.out / f"round{rnd}-{p}" for p in PATHS}
+            for d in dirs.values():
                 d.mkdir(parents=True, exist_ok=False)
-                load = os.getloadavg()[0]
-                wall, times = run_vpro(d, args.trials) if path == "vpro" else run_vla(d, url, args.trials)
-                rows.append({"round": rnd, "path": path, "wall": wall, "episodes": len(times), "episode_times": times,
-                             "load_before": load})
+            server_cpu0 = cpu_seconds(sproc)
+            logs = {p: open(dirs[p] / "log.txt", "w") for p in dirs}  # noqa: SIM115 - closed below
+            cmds = {"vpro": vpro_cmd(dirs["vpro"], args.trials), "vla": vla_cmd(dirs["vla"], url, args.trials, "png"),
+                    "vla-raw": vla_cmd(dirs["vla-raw"], url, args.trials, "raw")}
+            trees = {p: Tree(subprocess.Popen(cmds[p], stdout=logs[p], stderr=subprocess.STDOUT)) for p in PATHS}
+            while any(t.ended is None for t in trees.values()):
+                for t in trees.values():
+                    if t.ended is None:
+                        t.sample()
+                        if t.popen.poll() is not None:
+                            t.ended = time.monotonic()
+                time.sleep(0.5)
+            for f in logs.values():
+                f.close()
+            server_cpu = cpu_seconds(sproc) - server_cpu0
+            for path, t in trees.items():
+                if t.popen.returncode != 0:
+                    raise SystemExit(f"{path} failed; see {dirs[path] / 'log.txt'}")
+                eps = episodes(path, dirs[path])
+                # the server's CPU, shared by the two vla-eval runs, is counted in full against each
+                cpu = t.cpu + (server_cpu if path != "vpro" else 0.0)
+                rows.append({"round": rnd, "path": path, "wall_s": round(t.ended - t.started, 1), "cpu_s": round(cpu, 1),
+                             "server_cpu_s": round(server_cpu, 1) if path != "vpro" else None, "episodes": eps})
                 print(json.dumps(rows[-1]), flush=True)  # noqa: T201
     finally:
         server.terminate()
         server.wait(timeout=20)
-    summary = {}
-    for path in ("vpro", "vla"):
+    summary: dict = {}
+    for path in PATHS:
         mine = [r for r in rows if r["path"] == path]
-        wall = sum(r["wall"] for r in mine)
-        eps = sum(r["episodes"] for r in mine)
-        ep_times = [t for r in mine for t in r["episode_times"]]
-        summary[path] = {"episodes": eps, "wall_s": round(wall, 1), "episodes_per_hour_wall": round(3600 * eps / wall, 1),
-                         "mean_episode_s": round(sum(ep_times) / len(ep_times), 2),
-                         "episodes_per_hour_episode_time": round(3600 * len(ep_times) / sum(ep_times), 1)}
-    summary["ratio_wall_vla_over_vpro"] = round(summary["vla"]["wall_s"] / summary["vpro"]["wall_s"], 4)
-    summary["ratio_episode_vla_over_vpro"] = round(summary["vla"]["mean_episode_s"] / summary["vpro"]["mean_episode_s"], 4)
+        n = sum(len(r["episodes"]) for r in mine)
+        steps = sum(e["steps"] or 0 for r in mine for e in r["episodes"])
+        cpu = sum(r["cpu_s"] for r in mine)
+        summary[path] = {"episodes": n, "policy_steps": steps, "cpu_s": round(cpu, 1),
+                         "cpu_s_per_episode": round(cpu / n, 2), "episodes_per_cpu_hour": round(3600 * n / cpu, 1),
+                         "wall_s": round(sum(r["wall_s"] for r in mine), 1)}
+    for path in PATHS[1:]:
+        summary[f"cpu_ratio_{path}_over_vpro"] = round(summary[path]["cpu_s"] / summary["vpro"]["cpu_s"], 4)
     (args.out / "summary.json").write_text(json.dumps({"rounds": rows, "summary": summary}, indent=1))
     print(json.dumps(summary, indent=1))  # noqa: T201
     return 0

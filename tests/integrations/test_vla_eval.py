@@ -92,8 +92,9 @@ def vla_eval_run(config: Path, url: str, out: Path, *extra: str, env: dict | Non
     return subprocess.run(cmd, capture_output=True, text=True, timeout=1800, env=env)
 
 
-def write_config(path: Path, select: list[str], episodes: int = 1, max_steps: int | None = None) -> Path:
-    params: dict = {"select": select}
+def write_config(path: Path, select: list[str], episodes: int = 1, max_steps: int | None = None,
+                 **more) -> Path:
+    params: dict = {"select": select, **more}
     if max_steps is not None:
         params["max_steps"] = max_steps
     path.write_text(yaml.safe_dump({"server": {"url": "ws://127.0.0.1:1", "timeout": 120},
@@ -261,6 +262,13 @@ def test_unbuilt_scene_case_names_the_build_command(tmp_path, noop_server):
     assert f"run vpro build --select {SCENE}" in line
 
 
+def test_bad_benchmark_parameter_is_one_line_error(tmp_path, noop_server):
+    config = write_config(tmp_path / "c.yaml", [NORMAL], max_steps=2, image_format="jpeg")
+    proc = vla_eval_run(config, noop_server, tmp_path / "results")
+    assert proc.returncode != 0
+    assert _last_line(proc.stderr) == "LIBERO-VPro: params.image_format must be one of png, raw (lossless), got 'jpeg'"
+
+
 def test_recorded_failures_become_error_and_unavailable_rows():
     base = {"task_name": NORMAL, "episode_id": 3, "sid": "s",
             "context": {"name": NORMAL, "case_id": NORMAL, "suite": "libero_spatial", "task": "libero_spatial-00",
@@ -285,7 +293,7 @@ def test_recorded_failures_become_error_and_unavailable_rows():
 def test_scene_case_same_episode_as_in_process(tmp_path, scene_out, monkeypatch):
     actions = scripted_actions(20, seed=1)
     np.save(tmp_path / "actions.npy", actions)
-    config = write_config(tmp_path / "c.yaml", [SCENE], max_steps=20)
+    config = write_config(tmp_path / "c.yaml", [SCENE], max_steps=20, image_format="raw")  # unencoded images
     env = dict(os.environ, VPRO_OUT=str(scene_out))
     with model_server(tmp_path / "server.log", actions=tmp_path / "actions.npy", record_dir=tmp_path / "rx") as url:
         proc = vla_eval_run(config, url, tmp_path / "results", env=env)
