@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vpro_assets.rollout.policies.oracle import motion
-from vpro_assets.rollout.policies.oracle.clearance import lift_clear
+from vpro_assets.rollout.policies.oracle.clearance import lift_clear, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
@@ -27,6 +27,8 @@ LIFT_M = 0.10  # lift after closing, before any carry
 MIN_LIFT_M = 0.02  # the object counts as lifted when it rose this much
 TABLE_CLEARANCE_M = 0.008  # grip site at least this high above the object's bottom
 ROBOT_BASE_XY = np.array([-0.66, 0.0])  # the arm stands at -x in every LIBERO scene
+FINGER_REACH_M = 0.045  # each open finger this far from the grip site along the closing axis
+WALL_SIDES = 16  # candidate sides of a wide object's wall
 
 
 @dataclass(frozen=True)
@@ -60,13 +62,40 @@ def plan_grasp(world: World, instance: str) -> Grasp:
         point = mid + major * (proj_major.max() + proj_major.min()) / 2
         point[2] = z
         return Grasp(point, minor, width, rim=False)
-    # A wide object: pinch its wall on the side facing the robot, fingers closing radially.
-    toward = np.append(ROBOT_BASE_XY - center[:2], 0.0)
-    toward /= np.linalg.norm(toward)
-    proj = (pts[:, :2] - center[:2]) @ toward[:2]
-    point = center + toward * (proj.max() - WALL_INSET_M)
-    point[2] = max(hi[2] - WALL_DEPTH_M, lo[2] + 0.4 * height)
-    return Grasp(point, toward, 2 * WALL_INSET_M, rim=True)
+    # A wide object: pinch its wall, fingers closing radially, on the side nearest the robot where
+    # the outer finger and the hand have room (a bowl in a drawer stands close to the drawer's wall).
+    robot = np.append(ROBOT_BASE_XY - center[:2], 0.0)
+    robot /= np.linalg.norm(robot)
+    boxes = obstacle_boxes(world, (instance,))
+    z = max(hi[2] - WALL_DEPTH_M, lo[2] + 0.4 * height)
+    best: tuple[int, Grasp] | None = None
+    for k in sorted(range(WALL_SIDES), key=lambda k: abs(((k + WALL_SIDES / 2) % WALL_SIDES) - WALL_SIDES / 2)):
+        ang = 2 * np.pi * k / WALL_SIDES
+        rot = np.array([[np.cos(ang), -np.sin(ang), 0], [np.sin(ang), np.cos(ang), 0], [0, 0, 1]])
+        toward = rot @ robot
+        proj = (pts[:, :2] - center[:2]) @ toward[:2]
+        point = center + toward * (proj.max() - WALL_INSET_M)
+        point[2] = z
+        grasp = Grasp(point, toward, 2 * WALL_INSET_M, rim=True)
+        hits = blocked_spots(boxes, grasp)
+        if hits == 0:
+            return grasp
+        if best is None or hits < best[0]:
+            best = (hits, grasp)
+    return best[1]
+
+
+def blocked_spots(boxes: np.ndarray, grasp: Grasp) -> int:
+    """Obstacle boxes in the way of the open fingers coming down (boxes: (N, 2, 3) world boxes)."""
+    across = np.array([-grasp.axis[1], grasp.axis[0], 0.0])
+    spots = [grasp.point + grasp.axis * FINGER_REACH_M, grasp.point - grasp.axis * FINGER_REACH_M]
+    hits = 0
+    for spot in spots:
+        lo = spot - np.abs(grasp.axis) * 0.01 - np.abs(across) * 0.012
+        hi = spot + np.abs(grasp.axis) * 0.01 + np.abs(across) * 0.012
+        lo[2], hi[2] = spot[2] - 0.01, spot[2] + HOVER_M
+        hits += int(np.sum(np.all(boxes[:, 0] < hi, axis=1) & np.all(boxes[:, 1] > lo, axis=1)))
+    return hits
 
 
 def grasp_orientation(world: World, axis: np.ndarray) -> np.ndarray:
