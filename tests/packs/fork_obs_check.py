@@ -12,6 +12,7 @@ import importlib.util
 import json
 import os
 import sys
+import time
 
 import numpy as np
 
@@ -86,7 +87,9 @@ for name in sorted(classes):
         case = json.load(handle)
     if case["level"] != "observation":
         continue
+    started = time.perf_counter()
     env = OffScreenRenderEnv(bddl_file_name=suite.get_task_bddl_file_path(0), camera_heights=128, camera_widths=128)
+    built = time.perf_counter()
     recorder = Recorder(env)
     raw = recorder.raw  # what LIBERO returned: the initial state's frames, then one per step
     wrapped = vpro_libero_fork.wrap(recorder, case_path)
@@ -106,6 +109,7 @@ for name in sorted(classes):
     wrapped._observer.pipeline.detach()
     clean = {c: env.sim.render(width=128, height=128, camera_name=c) for c in CAMS}
     env.close()
+    seconds = {"build": round(built - started, 2), "episode": round(time.perf_counter() - built, 2)}
     rows = []
     for o, r in zip(seen, raw):
         row = {}
@@ -130,6 +134,7 @@ for name in sorted(classes):
         "rows": rows,
         "fed": fed,
         "scene_edits": edits,
+        "seconds": seconds,
         "raw_moves": not np.array_equal(raw[0]["robot0_eye_in_hand_image"], raw[-1]["robot0_eye_in_hand_image"]),
     }
 report["config_unchanged"] = digest(config_file) == config_before
