@@ -58,3 +58,24 @@ def test_trial_follows_resets_and_scene_cases_are_refused(base_env):
         vpro_assets.wrap(base_env, "libero_goal-03/task_precondition_variation/receptacle_openness-v1")
     with pytest.raises(InvalidParameterError, match="reset"):
         vpro_assets.wrap(base_env, f"{TASK}/view_unavailability/wrist-constant-v1").step(NOOP_ACTION)
+
+
+def test_wrap_never_reaches_libero_bridge(base_env, monkeypatch):
+    """The fork's env is used as it was built: wrapping, resetting and stepping never reach the
+    toolkit's LIBERO bridge (which writes LIBERO's config and locates the asset wheels)."""
+    from vpro_assets.libero import bridge, tasks
+
+    state = libero_init_states(get_task(TASK))[0]
+    tasks.load_tasks.cache_clear()  # a task looked up through LIBERO would reach the bridge again
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("wrap reached the toolkit's LIBERO bridge")
+
+    for name in ("write_libero_config", "assets_root", "libero_root", "libero_envs", "bddl_path", "init_state_path"):
+        monkeypatch.setattr(bridge, name, refuse)
+    env = vpro_assets.wrap(base_env, f"{TASK}/target_object_masking/ratio50-always-v1")
+    env.seed(0)
+    env.reset()
+    first = env.set_init_state(state)
+    obs, *_ = env.step(NOOP_ACTION)
+    assert obs["agentview_image"].shape == first["agentview_image"].shape == (64, 64, 3)
