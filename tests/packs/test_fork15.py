@@ -18,7 +18,7 @@ from fork_obs import check_obs_report, fork_config, run_obs_check, write_obs_pac
 
 from vpro_assets.core import paths
 
-pytestmark = pytest.mark.fork15
+pytestmark = [pytest.mark.slow, pytest.mark.fork15]  # minutes the first time: not in the default run
 VENV = paths.REPO_ROOT / "out" / "fork15-venv"
 
 

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from fork_obs import check_obs_report, fork_config, run_obs_check, write_obs_pack
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark.catalog import load_catalog
-from vpro_assets.packs.writer import write_pack
 from vpro_assets.benchmark.selection import select_cases
+from vpro_assets.core import paths
+from vpro_assets.packs.writer import write_pack
 
 pytestmark = pytest.mark.fork
 FORK_VENV = paths.REPO_ROOT / "out" / "fork-venv"
@@ -51,7 +51,7 @@ def _run(fork_python, *args):
     proc = subprocess.run([str(python), str(CHECK), *map(str, args)], capture_output=True, text=True,
                           timeout=1800, cwd="/", env=env)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    line = next(l for l in proc.stdout.splitlines() if l.startswith("REPORT "))
+    line = next(line for line in proc.stdout.splitlines() if line.startswith("REPORT "))
     return json.loads(line[len("REPORT "):])
 
 

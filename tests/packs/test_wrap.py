@@ -3,10 +3,8 @@ import numpy as np
 import pytest
 
 import vpro_assets
-from vpro_assets.libero.env import NOOP_ACTION
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import make_env
 from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.libero.env import NOOP_ACTION, libero_init_states, make_env
 from vpro_assets.libero.tasks import get_task
 
 TASK = "libero_goal-03"

@@ -132,7 +132,7 @@ def _object_class(name: str, xml: Path, spec: dict, pack_id: str, placement: dic
     def __init__(self, name=name, joints="default", **_ignored):
         # LIBERO builds fixtures with joints=None (no joint) and objects with the default free joint.
         if isinstance(joints, str) and joints == "default":
-            joints = [dict(type="free", damping="0.0005")]
+            joints = [{"type": "free", "damping": "0.0005"}]
         MujocoXMLObject.__init__(self, str(xml), name=name, joints=joints, obj_type="all",
                                  duplicate_collision_geoms=False)
         self.category_name = type(self).registered_name

@@ -10,8 +10,8 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from vpro_assets.core.hashing import canonical_json, sha256_file
 from vpro_assets.core.errors import VProError
+from vpro_assets.core.hashing import canonical_json, sha256_file
 
 MANIFEST = "manifest.json"
 PACK_FORMAT = "vpro-pack"

@@ -15,7 +15,7 @@ fork's env is used as it was built.
 from __future__ import annotations
 
 import os
-from typing import Mapping
+from collections.abc import Mapping
 
 from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
