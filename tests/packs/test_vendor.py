@@ -21,14 +21,21 @@ STALE = "libero_goal-03/camera_staleness/wrist-delay1-v1"
 SINGLE_VIEW = "libero_goal-03/view_unavailability/wrist-single_view-v1"
 
 
+def _one_case_per_observation_setting(catalog: dict) -> list[str]:
+    first: dict[str, str] = {}
+    for case in catalog["cases"]:
+        if case["level"] == "observation" and case["task"] != "libero_goal-03":
+            first.setdefault(case["setting"], case["id"])
+    return sorted(first.values())
+
+
 @pytest.fixture(scope="module")
 def pack(tmp_path_factory):
+    """One case of each of the 74 observation settings, plus the two checked in detail."""
     catalog = load_catalog(paths.catalog_path())
+    selection = [STALE, SINGLE_VIEW, *_one_case_per_observation_setting(catalog)]
     return write_pack(
-        select_cases(catalog, [STALE, SINGLE_VIEW]),
-        tmp_path_factory.mktemp("p") / "pack",
-        catalog,
-        paths.catalog_path(),
+        select_cases(catalog, selection), tmp_path_factory.mktemp("p") / "pack", catalog, paths.catalog_path()
     )
 
 
@@ -65,8 +72,8 @@ def test_pack_copy_is_the_toolkit_source_with_imports_renamed(pack):
 
 
 def test_pack_runtime_imports_and_builds_cases_without_the_toolkit(pack):
-    """In a fresh interpreter where `import vpro_assets` fails: the pack's module builds each
-    case's pipeline from the case JSON alone, and the wrapper refuses bad input by name."""
+    """In a fresh interpreter where `import vpro_assets` fails: the pack's module builds the
+    pipeline of every observation setting (74) from the case JSON alone."""
     code = f"""
 import json, sys
 sys.modules["vpro_assets"] = None  # the toolkit is not importable
@@ -86,11 +93,12 @@ print(sorted(m for m, v in sys.modules.items() if v is not None and m.split(".")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # as a fork runs it
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=pack.parent, env=env)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    built, loaded = proc.stdout.splitlines()
-    assert json.loads(built) == {
-        STALE: ["vpro/camera_staleness/wrist-delay1-v1", ["agentview", "robot0_eye_in_hand"], "Staleness"],
-        SINGLE_VIEW: ["vpro/view_unavailability/wrist-single_view-v1", ["agentview"], "ViewUnavailability"],
-    }
+    built, loaded = json.loads(proc.stdout.splitlines()[0]), proc.stdout.splitlines()[1]
+    catalog = load_catalog(paths.catalog_path())
+    observation = {s["id"] for s in catalog["settings"] if s["level"] == "observation"}
+    assert len(observation) == 74 and {row[0] for row in built.values()} == observation
+    assert built[STALE] == ["vpro/camera_staleness/wrist-delay1-v1", ["agentview", "robot0_eye_in_hand"], "Staleness"]
+    assert built[SINGLE_VIEW] == ["vpro/view_unavailability/wrist-single_view-v1", ["agentview"], "ViewUnavailability"]
     assert loaded == "[]"
     assert list(pack.rglob("__pycache__")), "the import wrote no bytecode cache; the next check proves nothing"
     assert not verify_pack(pack)[1]  # bytecode caches are not part of a pack
@@ -124,7 +132,7 @@ class _Env:
 
 
 def test_wrap_and_reset_name_the_case_and_the_bad_value(pack):
-    case_file = next(pack.glob("cases/vpro_camera_staleness/*.json"))
+    case_file = pack / "cases" / "vpro_camera_staleness" / "libero_goal-03__wrist-delay1-v1.json"
     case = json.loads(case_file.read_text())
     with pytest.raises(InvalidParameterError, match="case 'nope': not a case JSON file nor a case of the pack"):
         fork_runtime.load_case("nope", pack)
