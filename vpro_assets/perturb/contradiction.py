@@ -15,15 +15,17 @@ the truthful view is byte-identical to a clean render. Edits by attribute:
   (closed drawn open, off knob drawn on); otherwise the target is drawn upside down (rotated 180
   degrees about a horizontal axis through its centre). The stove's flame decal is not toggled.
 """
+
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from vpro_assets.benchmark.taxonomy import CONTRADICTION_EDITS, CONTRADICTION_OFFSET_M, VIEWS
-from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.core.errors import InvalidParameterError, VProError
 from vpro_assets.perturb import scene_edits as se
 from vpro_assets.perturb.base import Episode, Perturbation, param
 from vpro_assets.perturb.entities import Entity, EntityIndex
@@ -37,21 +39,31 @@ class Contradiction(Perturbation):
 
     def __init__(self, case_id: str, params: Mapping, task):
         self.case_id = case_id
-        self.attribute = param(case_id, params, "attribute", str, lambda v: v in CONTRADICTION_EDITS, f"one of {', '.join(CONTRADICTION_EDITS)}")
+        self.attribute = param(
+            case_id,
+            params,
+            "attribute",
+            str,
+            lambda v: v in CONTRADICTION_EDITS,
+            f"one of {', '.join(CONTRADICTION_EDITS)}",
+        )
         edit = param(case_id, params, "edit", str)
         if edit != CONTRADICTION_EDITS[self.attribute]:
-            raise InvalidParameterError(f"case {case_id}: edit={edit!r} does not match attribute "
-                                        f"{self.attribute!r} (expected {CONTRADICTION_EDITS[self.attribute]!r})")
+            raise InvalidParameterError(
+                f"case {case_id}: edit={edit!r} does not match attribute "
+                f"{self.attribute!r} (expected {CONTRADICTION_EDITS[self.attribute]!r})"
+            )
         self.camera = param(case_id, params, "camera", str, lambda v: v in VIEWS.values())
         if self.attribute == "position":
             self.offset_m = float(param(case_id, params, "offset_m", (int, float), lambda v: 0 < v < 1, "metres"))
         self.use_articulation = self.attribute == "state" and bool(task.articulations)
         if task.target is None and not self.use_articulation:
-            raise InvalidParameterError(f"case {case_id}: task {task.key} has no target (and no articulated "
-                                        f"fixture) to contradict")
+            raise InvalidParameterError(
+                f"case {case_id}: task {task.key} has no target (and no articulated fixture) to contradict"
+            )
         self.direction = np.zeros(3)
         self.entities: EntityIndex | None = None
-        self.sim = None
+        self.sim: Any = None  # robosuite's MjSim of the episode
         self._anchor: list[dict] | None = None
         self._scratch: mujoco.MjData | None = None
         self._joints: list[tuple[int, float, float]] = []
@@ -69,13 +81,34 @@ class Contradiction(Perturbation):
             self._joints = entities.articulation_joints()
 
     @property
+    def index(self) -> EntityIndex:
+        """The entities of the attached sim (a contradiction draws nothing before `attach`)."""
+        if self.entities is None:
+            raise VProError(f"case {self.case_id}: contradiction used before attach()")
+        return self.entities
+
+    @property
+    def target(self) -> Entity:
+        target = self.index.target
+        if target is None:  # __init__ refused a task without target unless it contradicts a fixture's state
+            raise VProError(f"case {self.case_id}: the scene has no target to contradict")
+        return target
+
+    @property
     def edited_entity(self) -> Entity:
         """The entity whose drawing differs in the manipulated view."""
         if self.use_articulation:
-            return self.entities.articulations[0] if len(self.entities.articulations) == 1 else Entity(
-                "articulations", tuple(b for a in self.entities.articulations for b in a.bodies),
-                tuple(g for a in self.entities.articulations for g in a.geoms), ())
-        return self.entities.target
+            return (
+                self.index.articulations[0]
+                if len(self.index.articulations) == 1
+                else Entity(
+                    "articulations",
+                    tuple(b for a in self.index.articulations for b in a.bodies),
+                    tuple(g for a in self.index.articulations for g in a.geoms),
+                    (),
+                )
+            )
+        return self.target
 
     def render_edits(self):
         return {self.camera: self.edit}
@@ -86,15 +119,15 @@ class Contradiction(Perturbation):
             step.note(self.camera, f"scene edit: {CONTRADICTION_EDITS[self.attribute]}")
 
     def _target_width(self) -> float:
-        m = self.entities.model
-        return max(float(np.linalg.norm(m.geom_aabb[g][3:5])) * 2 for g in self.entities.target.geoms)
+        m = self.index.model
+        return max(float(np.linalg.norm(m.geom_aabb[g][3:5])) * 2 for g in self.target.geoms)
 
     def edit(self, scn: mujoco.MjvScene) -> None:
-        model = self.entities.model
+        model = self.index.model
         if self.use_articulation:
             self._other_state(scn)
             return
-        idx = se.find(scn, self.entities.target.geoms)
+        idx = se.find(scn, self.target.geoms)
         if not idx:
             return
         if self.attribute == "existence":
@@ -110,12 +143,14 @@ class Contradiction(Perturbation):
             se.append(scn, self._anchor, offset=self.direction * shift)
 
     def _other_state(self, scn: mujoco.MjvScene) -> None:
-        model, data, scratch = self.entities.model, self.sim.data._data, self._scratch
+        model, data, scratch = self.index.model, self.sim.data._data, self._scratch
+        if scratch is None:
+            raise VProError(f"case {self.case_id}: state contradiction without an articulated fixture")
         scratch.qpos[:] = data.qpos
         for j, lo, hi in self._joints:
             adr = model.jnt_qposadr[j]
             q = data.qpos[adr]
             scratch.qpos[adr] = hi if (q - lo) < (hi - q) else lo
         mujoco.mj_kinematics(model, scratch)
-        geoms = [g for ent in self.entities.articulations for g in ent.geoms]
+        geoms = [g for ent in self.index.articulations for g in ent.geoms]
         se.set_poses(scn, se.find(scn, geoms), scratch.geom_xpos, scratch.geom_xmat)

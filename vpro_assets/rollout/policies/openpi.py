@@ -16,35 +16,45 @@ sets `predicts_frames` returns predicted frames with its actions, which the adap
 back to LIBERO's raw frame (`predicts_frames` is then true and Prediction-Reality Divergence cases
 run). A plain openpi server sets neither and sees exactly openpi's LIBERO requests.
 """
+
 from __future__ import annotations
 
-import logging
+import contextlib
 import inspect
+import logging
 import math
-from typing import Optional
+from typing import Any
 
 import numpy as np
 
 from vpro_assets.libero.env import CAMERAS
-from vpro_assets.rollout.policies.base import EpisodeInfo
-from vpro_assets.rollout.policies.base import Observation
-from vpro_assets.rollout.policies.base import PolicyConnectionError
-from vpro_assets.rollout.policies.base import PolicyOutput
-from vpro_assets.rollout.policies.base import PolicyOutputError
-from vpro_assets.rollout.policies.base import PolicyTimeoutError
-from vpro_assets.rollout.policies.base import as_output
-from vpro_assets.rollout.policies.wam import FLAG_EPISODE_RESET
-from vpro_assets.rollout.policies.wam import FLAG_PREDICTS_FRAMES
-from vpro_assets.rollout.policies.wam import decode_predicted_frames
-from vpro_assets.rollout.policies.wam import reset_message
-from vpro_assets.rollout.policies.wam import server_flag
+from vpro_assets.rollout.policies.base import (
+    EpisodeInfo,
+    Observation,
+    PolicyConnectionError,
+    PolicyOutput,
+    PolicyOutputError,
+    PolicyTimeoutError,
+    as_output,
+)
+from vpro_assets.rollout.policies.wam import (
+    FLAG_EPISODE_RESET,
+    FLAG_PREDICTS_FRAMES,
+    decode_predicted_frames,
+    reset_message,
+    server_flag,
+)
 
 log = logging.getLogger(__name__)
 
 RESIZE = 224
 REPLAN_STEPS = 5
-KEY_IMAGE, KEY_WRIST, KEY_STATE, KEY_PROMPT = ("observation/image", "observation/wrist_image",
-                                               "observation/state", "prompt")
+KEY_IMAGE, KEY_WRIST, KEY_STATE, KEY_PROMPT = (
+    "observation/image",
+    "observation/wrist_image",
+    "observation/state",
+    "prompt",
+)
 
 
 def quat2axisangle(quat: np.ndarray) -> np.ndarray:
@@ -57,7 +67,7 @@ def quat2axisangle(quat: np.ndarray) -> np.ndarray:
     return (quat[:3] * 2.0 * math.acos(quat[3])) / den
 
 
-def prepare_image(raw: Optional[np.ndarray], size: int = RESIZE, like: Optional[np.ndarray] = None) -> np.ndarray:
+def prepare_image(raw: np.ndarray | None, size: int = RESIZE, like: np.ndarray | None = None) -> np.ndarray:
     """Raw (bottom-up) LIBERO frame -> upright, padded to size x size, uint8. A missing view is black."""
     from openpi_client import image_tools
 
@@ -81,10 +91,19 @@ class OpenpiPolicy:
     """openpi websocket client with bounded connect and reply times. `episode_reset`: None follows
     the server's metadata, False never sends reset messages, True always does."""
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 8000, *, resize: int = RESIZE,
-                 replan_steps: int = REPLAN_STEPS, connect_timeout: float = 10.0, infer_timeout: float = 120.0,
-                 api_key: Optional[str] = None, policy_id: Optional[str] = None,
-                 episode_reset: Optional[bool] = None):
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 8000,
+        *,
+        resize: int = RESIZE,
+        replan_steps: int = REPLAN_STEPS,
+        connect_timeout: float = 10.0,
+        infer_timeout: float = 120.0,
+        api_key: str | None = None,
+        policy_id: str | None = None,
+        episode_reset: bool | None = None,
+    ):
         self.episode_reset = episode_reset
         self.host, self.port = host, int(port)
         self.resize, self.replan_steps = resize, replan_steps
@@ -107,24 +126,42 @@ class OpenpiPolicy:
         headers = {"Authorization": f"Api-Key {self.api_key}"} if self.api_key else None
         try:
             # The connection outlives this call (as in openpi-client); websockets 17 calls that `legacy`.
-            extra = {"legacy": True} if "legacy" in inspect.signature(websockets.sync.client.connect).parameters else {}
-            ws = websockets.sync.client.connect(self.uri, compression=None, max_size=None, additional_headers=headers,
-                                                open_timeout=self.connect_timeout, **extra)
+            extra: dict[str, Any] = (
+                {"legacy": True} if "legacy" in inspect.signature(websockets.sync.client.connect).parameters else {}
+            )
+            ws = websockets.sync.client.connect(
+                self.uri,
+                compression=None,
+                max_size=None,
+                additional_headers=headers,
+                open_timeout=self.connect_timeout,
+                **extra,
+            )
         except TimeoutError:
-            raise PolicyTimeoutError(f"policy server {self.uri}: no handshake within {self.connect_timeout:g} s") from None
+            raise PolicyTimeoutError(
+                f"policy server {self.uri}: no handshake within {self.connect_timeout:g} s"
+            ) from None
         except (OSError, Exception) as exc:  # ConnectionRefusedError, InvalidHandshake, InvalidURI...
-            raise PolicyConnectionError(f"policy server {self.uri}: cannot connect ({type(exc).__name__}: {exc})") from None
+            raise PolicyConnectionError(
+                f"policy server {self.uri}: cannot connect ({type(exc).__name__}: {exc})"
+            ) from None
         try:
             self.server_metadata = msgpack_numpy.unpackb(ws.recv(timeout=self.connect_timeout))
         except TimeoutError:
             ws.close()
-            raise PolicyTimeoutError(f"policy server {self.uri}: no metadata within {self.connect_timeout:g} s") from None
+            raise PolicyTimeoutError(
+                f"policy server {self.uri}: no metadata within {self.connect_timeout:g} s"
+            ) from None
         except Exception as exc:
             ws.close()
-            raise PolicyConnectionError(f"policy server {self.uri}: bad greeting ({type(exc).__name__}: {exc})") from None
+            raise PolicyConnectionError(
+                f"policy server {self.uri}: bad greeting ({type(exc).__name__}: {exc})"
+            ) from None
         try:
-            self._flags = {key: server_flag(self.server_metadata, key, f"policy server {self.uri}")
-                           for key in (FLAG_PREDICTS_FRAMES, FLAG_EPISODE_RESET)}
+            self._flags = {
+                key: server_flag(self.server_metadata, key, f"policy server {self.uri}")
+                for key in (FLAG_PREDICTS_FRAMES, FLAG_EPISODE_RESET)
+            }
         except PolicyOutputError:
             ws.close()
             raise
@@ -132,10 +169,8 @@ class OpenpiPolicy:
 
     def _drop(self) -> None:
         if self._ws is not None:
-            try:
+            with contextlib.suppress(Exception):  # already broken
                 self._ws.close()
-            except Exception:  # already broken
-                pass
         self._ws = None
 
     @property
@@ -154,8 +189,9 @@ class OpenpiPolicy:
             reply = self.infer(reset_message(episode))
             if not isinstance(reply, dict):
                 self._drop()
-                raise PolicyOutputError(f"policy server {self.uri}: reply to the episode reset is a "
-                                        f"{type(reply).__name__}, expected a dict")
+                raise PolicyOutputError(
+                    f"policy server {self.uri}: reply to the episode reset is a {type(reply).__name__}, expected a dict"
+                )
 
     def infer(self, request: dict) -> dict:
         from openpi_client import msgpack_numpy
@@ -163,6 +199,7 @@ class OpenpiPolicy:
 
         if self._ws is None:
             self._connect()
+        assert self._ws is not None  # _connect sets it or raises
         try:
             self._ws.send(msgpack_numpy.packb(request))
             reply = self._ws.recv(timeout=self.infer_timeout)
@@ -171,7 +208,9 @@ class OpenpiPolicy:
             raise PolicyTimeoutError(f"policy server {self.uri}: no reply within {self.infer_timeout:g} s") from None
         except (ConnectionClosed, OSError) as exc:
             self._drop()
-            raise PolicyConnectionError(f"policy server {self.uri}: connection lost ({type(exc).__name__}: {exc})") from None
+            raise PolicyConnectionError(
+                f"policy server {self.uri}: connection lost ({type(exc).__name__}: {exc})"
+            ) from None
         if isinstance(reply, str):
             self._drop()
             raise PolicyOutputError(f"policy server {self.uri}: error reply: {reply.strip()[-500:]}")
@@ -188,8 +227,10 @@ class OpenpiPolicy:
             raise PolicyOutputError(f"{where}: reply is a {type(reply).__name__}, expected a dict")
         out = as_output({"actions": reply["actions"]} if "actions" in reply else reply, where=where)
         if self.replan_steps and out.actions.shape[0] < self.replan_steps:
-            raise PolicyOutputError(f"{where}: chunk of {out.actions.shape[0]} actions, "
-                                    f"fewer than the {self.replan_steps} executed per request")
+            raise PolicyOutputError(
+                f"{where}: chunk of {out.actions.shape[0]} actions, "
+                f"fewer than the {self.replan_steps} executed per request"
+            )
         if not self._flags[FLAG_PREDICTS_FRAMES]:
             return out  # a server that does not declare predictions: any frames it sends are ignored
         shapes = {cam: np.shape(img) for cam, img in obs.images.items() if img is not None}

@@ -13,12 +13,14 @@ seconds), `error` (text error frame). It listens on loopback only.
 `vpro_assets.rollout.policies.wam` (pass it with its `metadata`): it keeps per-episode state and
 predicts frames, with its own faults for the frames it returns.
 """
+
 from __future__ import annotations
 
 import logging
 import threading
 import time
-from typing import Callable, Optional
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -34,8 +36,16 @@ def noop_chunk(obs: dict, horizon: int = 10) -> dict:
 
 
 class LoopbackPolicyServer:
-    def __init__(self, infer: Callable[[dict], dict] = noop_chunk, *, fault: Optional[str] = None,
-                 fault_count: int = 0, delay: float = 2.0, metadata: Optional[dict] = None, host: str = "127.0.0.1"):
+    def __init__(
+        self,
+        infer: Callable[[dict], dict] = noop_chunk,
+        *,
+        fault: str | None = None,
+        fault_count: int = 0,
+        delay: float = 2.0,
+        metadata: dict | None = None,
+        host: str = "127.0.0.1",
+    ):
         if fault is not None and fault not in FAULTS:
             raise ValueError(f"fault must be one of {FAULTS}, got {fault!r}")
         if not host.startswith("127.") and host not in ("localhost", "::1"):
@@ -45,8 +55,8 @@ class LoopbackPolicyServer:
         self.host = host
         self.requests: list[dict] = []
         self.connections = 0
-        self._server = None
-        self._thread = None
+        self._server: Any = None  # websockets' sync Server once started
+        self._thread: threading.Thread | None = None
         self._lock = threading.Lock()
 
     @property
@@ -88,19 +98,20 @@ class LoopbackPolicyServer:
                     pass
                 return
 
-    def start(self) -> "LoopbackPolicyServer":
+    def start(self) -> LoopbackPolicyServer:
         from websockets.sync.server import serve
 
-        self._server = serve(self._handle, self.host, 0, compression=None, max_size=None)
-        self._thread = threading.Thread(target=self._server.serve_forever, daemon=True)
-        self._thread.start()
+        self._server = server = serve(self._handle, self.host, 0, compression=None, max_size=None)
+        self._thread = thread = threading.Thread(target=server.serve_forever, daemon=True)
+        thread.start()
         return self
 
     def stop(self) -> None:
         if self._server is not None:
             self._server.shutdown()
-            self._thread.join(timeout=5)
-            self._server = None
+            if self._thread is not None:
+                self._thread.join(timeout=5)
+            self._server = self._thread = None
 
     def __enter__(self):
         return self.start()
@@ -126,8 +137,7 @@ class EchoWorldModel:
 
     MARK = 24
 
-    def __init__(self, orientation: str = "rot180", horizon: int = 10, fault: Optional[str] = None,
-                 fault_count: int = 0):
+    def __init__(self, orientation: str = "rot180", horizon: int = 10, fault: str | None = None, fault_count: int = 0):
         if orientation not in ("rot180", "raw", "flipud"):
             raise ValueError(f"orientation must be rot180, raw or flipud, got {orientation!r}")
         if fault is not None and fault not in FRAME_FAULTS:
@@ -136,7 +146,7 @@ class EchoWorldModel:
         self.metadata = {"server": "vpro-loopback-wam", "predicts_frames": True, "episode_reset": True}
         self.episodes: list[dict] = []
         self.history: list[dict] = []
-        self.prompt: Optional[str] = None
+        self.prompt: str | None = None
         self.observations = 0
         self._lock = threading.Lock()
 
@@ -144,7 +154,7 @@ class EchoWorldModel:
     def frame(cls, n: int, size: int) -> np.ndarray:
         """The prediction for the n-th observation of an episode, upright as the request shows it."""
         img = np.full((size, size, 3), (10 * n) % 256, np.uint8)
-        img[:cls.MARK, :cls.MARK] = 255
+        img[: cls.MARK, : cls.MARK] = 255
         return img
 
     def __call__(self, message: dict) -> dict:
@@ -168,8 +178,11 @@ class EchoWorldModel:
                 continue
             upright = self.frame(n, np.shape(message[key])[0])
             frames[cam] = {"rot180": upright, "raw": upright[::-1, ::-1], "flipud": upright[:, ::-1]}[self.orientation]
-        reply = {"actions": np.tile(np.array([0, 0, 0, 0, 0, 0, -1.0]), (self.horizon, 1)),
-                 "predicted_frames": frames, "predicted_frames_orientation": self.orientation}
+        reply = {
+            "actions": np.tile(np.array([0, 0, 0, 0, 0, 0, -1.0]), (self.horizon, 1)),
+            "predicted_frames": frames,
+            "predicted_frames_orientation": self.orientation,
+        }
         if faulty and self.fault == "missing_frames":
             del reply["predicted_frames"]
         elif faulty and self.fault == "frame_shape":
