@@ -64,6 +64,9 @@ def add_parser(sub) -> None:
     q.add_argument("--rounds", type=int, default=3,
                    help="repetitions of the whole interleaved sequence; the spread of a ratio is its range "
                    "over the rounds (default 3)")
+    q.add_argument("--mask-path", choices=("capture", "reference", "both"), default="capture",
+                   help="how mask settings get their masks: from the scene the env drew (capture, the default), "
+                   "from full-scene segmentation renders (reference, the path before issue 15), or both side by side")
     q.add_argument("--task", default="libero_spatial-00",
                    help="task to run on where the setting applies to it (default libero_spatial-00, where all "
                    "74 apply); otherwise the setting's first catalog task")
@@ -127,7 +130,7 @@ def _block(env, task, state, pipeline, steps: int) -> dict:
 
 
 def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolution: int, progress=None,
-          rounds: int = 3) -> list[dict]:
+          rounds: int = 3, mask_path: str = "capture") -> list[dict]:
     from vpro_assets.perturb import build_pipeline
 
     catalog = load_catalog(paths.catalog_path())
@@ -147,7 +150,12 @@ def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolutio
             pipes = [(None, clean_pipe)]
             for s in group:
                 case = {"id": f"{key}/{s.id.removeprefix('vpro/')}", "setting": s.id, "params": s.param_dict}
-                pipes.append((s, build_pipeline(case, task)))
+                mask_paths = ("capture", "reference") if mask_path == "both" else (mask_path,)
+                for k, path in enumerate(mask_paths):
+                    pipe = build_pipeline(case, task)
+                    pipe.capture_masks = path == "capture"
+                    if k == 0 or pipe.mask_labels:  # settings without masks are measured once
+                        pipes.append((s, pipe))
             runs: dict[int, list[tuple[dict, dict, dict]]] = {i: [] for i in range(len(pipes))}
             previous = _block(env, task, state, clean_pipe, steps)
             for _ in range(rounds):
@@ -178,7 +186,9 @@ def _row(s: tx.Setting | None, pipe, key: str, steps: int, resolution: int, runs
     masks = bool(pipe.mask_labels)
     goal = GOAL_MASK if masks else GOAL_OTHER
     n = len(runs) * steps
+    reference = bool(pipe.mask_labels) and not pipe.capture_masks
     return {"setting": s.id if s else CONTROL, "category": s.category if s else "control", "task": key,
+            "mask_path": ("reference" if reference else "capture") if pipe.mask_labels else None,
             "steps": steps, "rounds": len(runs), "resolution": resolution,
             "ratio": round(ratio, 4), "ratio_min": round(min(per_round), 4), "ratio_max": round(max(per_round), 4),
             "ratio_rounds": [round(r, 4) for r in per_round],
@@ -211,13 +221,15 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         met = "" if r["setting"] == CONTROL else (f"{'yes' if r['meets_goal'] else '**no**'} / "
                                                     f"{'yes' if r.get('overhead_meets_goal', r['meets_goal']) else '**no**'}")
         rng = f"{r['ratio_min']:.3f}-{r['ratio_max']:.3f}" if "ratio_min" in r else ""
-        lines.append(f"| `{r['setting']}` | {r['task']} | {'yes' if r.get('masks') else 'no'} | "
+        masks = {"capture": "yes", "reference": "yes, full-scene segmentation"}.get(r.get("mask_path"), "no")
+        lines.append(f"| `{r['setting']}` | {r['task']} | {masks} | "
                      f"{r['clean_step_ms']:.0f} | {r['perturbed_step_ms']:.0f} | {r['ratio']:.3f} | {rng} | "
                      f"{r.get('added_ms', 0):.1f} | {r.get('overhead_ratio', r['ratio']):.3f} | "
                      f"{r['active_steps']}/{r.get('measured_steps', r['steps'])} | {met} |")
     by_cat: dict[str, list[dict]] = {}
     for r in rows:
-        by_cat.setdefault(r["category"], []).append(r)
+        by_cat.setdefault(r["category"] + (" (full-scene segmentation)" if r.get("mask_path") == "reference" else ""),
+                          []).append(r)
     lines += ["", "| category | settings | median ratio | max ratio | median overhead | max overhead | goal | "
               "met (ratio / overhead) |", "|---|---:|---:|---:|---:|---:|---:|---|"]
     for cat, rs in by_cat.items():
@@ -255,11 +267,12 @@ def run_bench_perturb(args) -> int:
     try:
         from tqdm import tqdm
 
-        progress = tqdm(total=(len(settings) + 1) * args.rounds, desc="bench perturb", unit="block", file=sys.stderr)
+        per_setting = 2 if args.mask_path == "both" else 1  # an upper bound: only mask settings double
+        progress = tqdm(total=(len(settings) * per_setting + 1) * args.rounds, desc="bench perturb", unit="block", file=sys.stderr)
     except ImportError:  # pragma: no cover
         progress = None
     load0, t0 = os.getloadavg()[0], time.time()
-    rows = bench(settings, args.task, args.steps, args.resolution, progress, args.rounds)
+    rows = bench(settings, args.task, args.steps, args.resolution, progress, args.rounds, args.mask_path)
     load1, wall = os.getloadavg()[0], time.time() - t0
     if progress:
         progress.close()
