@@ -293,7 +293,7 @@ def test_recorded_failures_become_error_and_unavailable_rows():
 def test_scene_case_same_episode_as_in_process(tmp_path, scene_out, monkeypatch):
     actions = scripted_actions(20, seed=1)
     np.save(tmp_path / "actions.npy", actions)
-    config = write_config(tmp_path / "c.yaml", [SCENE], max_steps=20, image_format="raw")  # unencoded images
+    config = write_config(tmp_path / "c.yaml", [SCENE], max_steps=20, image_format="png")  # vla-eval's PNG
     env = dict(os.environ, VPRO_OUT=str(scene_out))
     with model_server(tmp_path / "server.log", actions=tmp_path / "actions.npy", record_dir=tmp_path / "rx") as url:
         proc = vla_eval_run(config, url, tmp_path / "results", env=env)

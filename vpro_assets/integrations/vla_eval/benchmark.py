@@ -107,9 +107,11 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         predicts_frames: the model server returns `predicted_frames` with its actions (world-action
             models); Prediction-Reality Divergence cases run only then, else their episodes are
             recorded as unavailable, as `vpro eval` does.
-        image_format: how images travel to the server: `png` (vla-eval's default, 2.5x smaller,
-            about 33 ms of encoding per step for both views) or `raw` (no encoding; for a server
-            on the same host or a fast link). Both are lossless: the server decodes the same pixels.
+        image_format: how images travel to the server: `raw` (default: unencoded, 390 kB per
+            step) or `png` (vla-eval's own default: 2.5x smaller, but about 33 ms of CPU per step
+            to encode both views, 12% on top of an episode; for a server across a slow link). Both
+            are lossless: the server decodes the same pixels. vla-eval's codec is process-wide, so
+            the choice also applies to other benchmark entries of the same run.
     """
 
     def __init__(
@@ -124,7 +126,7 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         quat_no_antipodal: bool = False,
         absolute_action: bool = False,
         predicts_frames: bool = False,
-        image_format: str = "png",
+        image_format: str = "raw",
     ) -> None:
         super().__init__(suite="libero_vpro", seed=0, num_steps_wait=num_steps_wait,
                          send_wrist_image=send_wrist_image, send_state=send_state,
