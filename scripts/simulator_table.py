@@ -11,9 +11,9 @@ from __future__ import annotations
 import json
 import sys
 from collections import defaultdict
+from pathlib import Path
 
-from vpro_assets.rollout.settle import pose_difference
-from vpro_assets.rollout.settle import trial_problems
+from vpro_assets.rollout.settle import pose_difference, trial_problems
 
 
 def _short(problem: str) -> str:
@@ -21,7 +21,7 @@ def _short(problem: str) -> str:
 
 
 def main(paths: list[str]) -> None:
-    runs = [json.loads(open(p).read()) for p in paths]
+    runs = [json.loads(Path(p).read_text()) for p in paths]
     names = [f"mujoco {r['simulator']['mujoco']}" for r in runs]
     by_key = [{(rec["case"], rec["trial"]): rec for rec in r["records"]} for r in runs]
     cases = list(dict.fromkeys(rec["case"] for rec in runs[0]["records"]))

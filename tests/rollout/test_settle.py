@@ -9,8 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from vpro_assets.benchmark.catalog import find_case
-from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import simulator_versions
@@ -18,11 +17,10 @@ from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.report.write import write_report
 from vpro_assets.rollout import fingerprints as fp
 from vpro_assets.rollout import settle
+from vpro_assets.rollout import store as store_module
 from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.episode import WAIT_STEPS
-from vpro_assets.rollout.settle import settle_trial
-from vpro_assets.rollout.settle import trial_problems
-from vpro_assets.rollout import store as store_module
+from vpro_assets.rollout.settle import settle_trial, trial_problems
 from vpro_assets.rollout.store import ResultsStore
 
 # Cheap scenes (2-4 s to settle), one per kind: floor with a basket, tabletop, articulated cabinet.

@@ -9,8 +9,8 @@ compared as if it were the same scene.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Iterable, Mapping
 
 from vpro_assets.core import paths
 from vpro_assets.core.atomic import write_text_atomic

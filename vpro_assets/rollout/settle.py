@@ -17,7 +17,8 @@ placement, which the recorded initial states themselves miss by up to 1.5 cm).
 from __future__ import annotations
 
 import logging
-from typing import Mapping, Optional
+from collections.abc import Mapping
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -112,7 +113,7 @@ class _Scene:
     def relation(self, state: list) -> dict:
         pred, args = state[0].lower(), state[1:]
         libero = bool(self.inner._eval_predicate(state))
-        geometric: Optional[bool] = None
+        geometric: bool | None = None
         if pred == "on" and len(args) == 2 and args[0] in self.objects:
             a, b = args
             if b in self.inner.obj_body_id and b not in self.inner.object_sites_dict:
@@ -145,8 +146,8 @@ def settle_trial(case: Mapping, trial: int, wait_steps: int = WAIT_STEPS) -> dic
     try:
         cenv.reset()
         scene = _Scene(cenv.env)
-        left_table = {name: False for name in scene.objects}
-        out_of_view = {name: 0 for name in scene.objects}
+        left_table = dict.fromkeys(scene.objects, False)
+        out_of_view = dict.fromkeys(scene.objects, 0)
         for step in range(wait_steps + 1):
             if step:
                 cenv.step(NOOP_ACTION)
@@ -203,7 +204,7 @@ def _tilt_deg(quat_a, quat_b) -> float:
 def pose_difference(a: Mapping, b: Mapping) -> dict:
     """Largest object displacement (cm, with its object), tilt change (deg) and joint change between
     two settled records of the same trial (`objects` with `pose`, `joints`)."""
-    worst = {"displacement_cm": 0.0, "object": None, "tilt_deg": 0.0, "tilt_object": None,
+    worst: dict[str, Any] = {"displacement_cm": 0.0, "object": None, "tilt_deg": 0.0, "tilt_object": None,
              "joint_change": 0.0, "joint": None, "missing": []}
     for name, obj in a["objects"].items():
         other = b["objects"].get(name)
