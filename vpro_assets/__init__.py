@@ -4,17 +4,24 @@ Importing the package is cheap: LIBERO, robosuite and renderers load only when u
 `vpro_assets.wrap(env, case)` puts a case's observation perturbations around a fork's env.
 
 In the toolkit's own environment, importing the package also points LIBERO at the config that
-`make setup` wrote (`.libero/config.yaml` in the repository) when no `LIBERO_CONFIG_PATH` is set,
-so a user's own script that imports LIBERO afterwards is not stopped by LIBERO's stdin prompt.
+`make setup` wrote (`.libero/config.yaml` in the repository) when neither `LIBERO_CONFIG_PATH` nor
+the user's own `~/.libero/config.yaml` exists, so a user's own script that imports LIBERO afterwards is not stopped by LIBERO's stdin prompt.
 Nothing is written at import.
 """
 import os as _os
+from pathlib import Path as _Path
 
 from vpro_assets.core import paths as _paths
 
 __version__ = "0.1.0"
 
-if "LIBERO_CONFIG_PATH" not in _os.environ and (_paths.libero_config_dir() / "config.yaml").is_file():
+# Only where LIBERO would otherwise prompt: a user's own ~/.libero/config.yaml (a fork with the
+# toolkit installed) keeps being the one LIBERO reads.
+if (
+    "LIBERO_CONFIG_PATH" not in _os.environ
+    and not (_Path.home() / ".libero" / "config.yaml").is_file()
+    and (_paths.libero_config_dir() / "config.yaml").is_file()
+):
     _os.environ["LIBERO_CONFIG_PATH"] = str(_paths.libero_config_dir())
 
 
