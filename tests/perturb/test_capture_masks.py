@@ -17,12 +17,14 @@ from vpro_assets.libero.tasks import get_task
 from vpro_assets.perturb import PerturbedEnv
 from vpro_assets.perturb.base import MaskSource
 from vpro_assets.perturb.capture import CaptureRenderer, capture
+from vpro_assets.perturb.imageops import meeting_region, scaled_px
 from vpro_assets.perturb.rendering import render_context
 from vpro_assets.rollout.policies.scripted import PickPlaceController
 
 TASKS = ("libero_spatial-00", "libero_goal-03", "libero_object-02")
 RES, STEPS, LABELS = 128, 10, ("target", "receptacle", "gripper")
 GEOM = int(mujoco.mjtObj.mjOBJ_GEOM)
+RADIUS = scaled_px(6, RES)  # interaction-cue masking's contact radius at this size
 MIN_PX = 50  # IoU is asserted on frames where the entity has at least this many pixels
 
 
@@ -66,7 +68,7 @@ def test_captured_masks_equal_full_scene_segmentation(key):
         sim, pipe = env.sim, env.pipeline
         reference = FullCapture(sim)
         controller = PickPlaceController(sim, task)
-        compared, occluded = 0, 0
+        compared, occluded, apart = 0, 0, 0
         for step in range(STEPS):
             env.env.step(controller.action())
             masks = MaskSource(sim, pipe.entities, {c: (RES, RES) for c in CAMERAS}, pipe.hook.take(),
@@ -85,9 +87,17 @@ def test_captured_masks_equal_full_scene_segmentation(key):
                         # the entity drawn alone covers more: something in the scene hides part of it
                         alone = np.isin(reference.ids(cam, only=set(entity.geoms)), entity.geoms)
                         occluded += int(alone.sum() > ref.sum())
+                # entities whose windows cannot meet have an empty contact region in the reference too
+                for a, b in (("gripper", "target"), ("target", "receptacle")):
+                    if not masks.may_meet(cam, a, b, RADIUS):
+                        apart += 1
+                        region = meeting_region(np.isin(ref_ids, pipe.entities.entity(a).geoms),
+                                                np.isin(ref_ids, pipe.entities.entity(b).geoms), RADIUS)
+                        assert not region.any(), f"{key} step {step} {cam}: {a} and {b} meet"
             assert masks.reference_renders == 0  # every mask came from the captured scenes
         assert compared >= STEPS * 3  # several entities visible in both cameras
         assert occluded > 0  # some frames test occlusion, not only entities in the open
+        assert apart > 0  # and some skip a contact region by the windows alone
     finally:
         env.close()
 

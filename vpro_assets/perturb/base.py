@@ -19,7 +19,7 @@ from vpro_assets.core.seeding import rng
 from vpro_assets.libero.task_record import TaskRecord
 from vpro_assets.perturb.entities import EntityIndex
 from vpro_assets.perturb.phases import PhaseState
-from vpro_assets.perturb.capture import Capture, CaptureRenderer
+from vpro_assets.perturb.capture import Capture, CaptureRenderer, windows_may_meet
 from vpro_assets.perturb.rendering import SceneEdit, render_context, render_geom_ids
 
 
@@ -77,6 +77,15 @@ class MaskSource:
             self._captured_ids[camera] = self.renderer.draw_ids(render_context(self.sim), cap)
             self.renders += 1
         return self._captured_ids[camera]
+
+    def may_meet(self, camera: str, a: str, b: str, radius: int) -> bool:
+        """False only when the captured windows of entities `a` and `b` prove that no pixel lies
+        within `radius` of both (their contact region is empty); True when unknown."""
+        cap = self.captures.get(camera)
+        if (cap is None or cap.label_windows is None or a not in cap.label_windows or b not in cap.label_windows
+                or (cap.height, cap.width) != tuple(self.shapes[camera])):
+            return True
+        return windows_may_meet(cap.label_windows[a], cap.label_windows[b], radius)
 
     def mask(self, camera: str, label: str) -> np.ndarray:
         """Boolean raw-frame mask of `label` (target, receptacle, gripper) in `camera`."""

@@ -47,6 +47,7 @@ class Capture:
     cameras: tuple[dict, dict]  # the scene's two GL cameras (stereo halves; equal in mono)
     generation: int  # RenderHook's capture counter when taken
     window: tuple[int, int, int, int] | None = None  # pixels (x0, y0, x1, y1) to draw; None: nothing
+    label_windows: dict[str, tuple[int, int, int, int] | None] | None = None  # per entity, same bounds
 
     def key(self) -> bytes:
         """Everything the segmentation render depends on: equal keys draw equal pixels."""
@@ -179,22 +180,25 @@ class View:
 
 
 def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candidates: np.ndarray, view: View,
-                   hulls: GeomHulls) -> tuple[np.ndarray, tuple[int, int, int, int] | None]:
+                   hulls: GeomHulls, groups: dict[str, np.ndarray] | None = None):
     """Boolean per model geom: an entity geom, or one of `candidates` (the geoms the scene may
     draw) that can cover one in this camera (its projected bounds overlap the entities' footprint
     and it is not wholly behind them; planes always), and the pixel window of the footprint (None:
-    the entities are out of view, nothing to draw)."""
+    the entities are out of view, nothing to draw), and the window of each group of `groups`
+    (label -> geoms) on its own."""
     out = np.zeros(model.ngeom, dtype=bool)
+    groups = groups or {}
+    none = {label: None for label in groups}
     entity_geoms = np.intersect1d(entity_geoms, candidates)  # geoms the scene does not draw leave no pixel
     if not len(entity_geoms):
-        return out, None
+        return out, None, none
     out[entity_geoms] = True
     out |= model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE
     geoms = candidates
     u0, u1, v0, v1, z0, z1, front = _image_boxes(model, data, geoms, camera_id, view.near)
     e = np.isin(geoms, entity_geoms) & front
     if not e.any():
-        return out, None
+        return out, None, none
 
     def refine(idx: np.ndarray) -> None:  # hull bounds where every hull point is before the camera
         hu0, hu1, hv0, hv1, hz0, hz1, ok = _hull_boxes(model, data, geoms[idx], hulls, camera_id, view.near)
@@ -203,8 +207,12 @@ def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candid
 
     refine(np.flatnonzero(e))
     window = view.pixel_window(u0[e].min(), u1[e].max(), v0[e].min(), v1[e].max())
+    label_windows = {}
+    for label, members in groups.items():
+        g = e & np.isin(geoms, members)
+        label_windows[label] = view.pixel_window(u0[g].min(), u1[g].max(), v0[g].min(), v1[g].max()) if g.any() else None
     if window is None:
-        return out, None
+        return out, None, none
     # the window back on the image plane: what lies outside it cannot draw on the entities' pixels
     x0, y0, x1, y1 = window
     pw, ph = (view.right - view.left) / view.width, (view.top - view.bottom) / view.height
@@ -217,11 +225,12 @@ def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candid
 
     refine(np.flatnonzero(overlapping() & ~e))  # boxes first (cheap), hulls for what they keep
     out[geoms[overlapping()]] = True
-    return out, window
+    return out, window, label_windows
 
 
 def capture(ctx, model, data, camera_id: int, width: int, height: int, entity_geoms: np.ndarray,
-            generation: int, candidates: np.ndarray | None = None, hulls: GeomHulls | None = None) -> Capture:
+            generation: int, candidates: np.ndarray | None = None, hulls: GeomHulls | None = None,
+            groups: dict[str, np.ndarray] | None = None) -> Capture:
     """Copy, from the scene the env just drew (`ctx.scn`), the entries of the entities and of the
     geoms that can cover them, plus every non-geom entry (few; they may cover anything), and the
     pixel window the entities can occupy."""
@@ -230,15 +239,15 @@ def capture(ctx, model, data, camera_id: int, width: int, height: int, entity_ge
                   for f in _CAMERA_FIELDS} for c in (scn.camera[0], scn.camera[1]))
     if candidates is None:
         candidates = drawable_geoms(model, ctx.vopt)
-    keep, window = relevant_geoms(model, data, camera_id, np.asarray(entity_geoms), candidates,
-                                  View.of(cams[0], width, height), hulls or GeomHulls())
+    keep, window, label_windows = relevant_geoms(model, data, camera_id, np.asarray(entity_geoms), candidates,
+                                                 View.of(cams[0], width, height), hulls or GeomHulls(), groups)
     entries = []
     if window is not None:
         for i in range(scn.ngeom):
             g = scn.geoms[i]
             if g.segid >= 0 and (g.objtype != _GEOM or keep[g.objid]):
                 entries.append(scene_edits.snapshot(g))
-    return Capture(camera_id, width, height, entries, cams, generation, window)
+    return Capture(camera_id, width, height, entries, cams, generation, window, label_windows)
 
 
 class CaptureRenderer:
@@ -318,3 +327,12 @@ def decode_ids(rgb: np.ndarray, scn: mujoco.MjvScene) -> np.ndarray:
     lut[np.asarray(segids, dtype=np.int64) + 1] = objids
     seg[seg >= len(lut)] = 0
     return lut[seg]
+
+
+def windows_may_meet(a: tuple[int, int, int, int] | None, b: tuple[int, int, int, int] | None, radius: int) -> bool:
+    """False when no pixel can lie within `radius` of both windows' contents (so the contact
+    region of two entities inside them is empty without drawing them)."""
+    if a is None or b is None:
+        return False
+    return (a[0] - radius < b[2] + radius and b[0] - radius < a[2] + radius
+            and a[1] - radius < b[3] + radius and b[1] - radius < a[3] + radius)

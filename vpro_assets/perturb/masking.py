@@ -98,9 +98,10 @@ class CueMasking(Perturbation):
         radius = scaled_px(self.dilation_px, masks.shapes[cam][0])
         if self.region == "gripper":
             return masks.mask(cam, "gripper")
-        if self.region == "gripper_object_contact":
-            return meeting_region(masks.mask(cam, "gripper"), masks.mask(cam, "target"), radius)
-        return meeting_region(masks.mask(cam, "target"), masks.mask(cam, "receptacle"), radius)
+        a, b = ("gripper", "target") if self.region == "gripper_object_contact" else ("target", "receptacle")
+        if not masks.may_meet(cam, a, b, radius):  # apart in the image: nothing to draw or cover
+            return np.zeros(masks.shapes[cam], dtype=bool)
+        return meeting_region(masks.mask(cam, a), masks.mask(cam, b), radius)
 
     def apply(self, frames, step: Step) -> None:
         for cam in self.camera_names:

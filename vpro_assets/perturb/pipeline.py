@@ -116,8 +116,10 @@ class ObservationPipeline:
             p.attach(sim, self.entities)
         if self.hook is not None:
             if self.mask_labels and self.capture_masks:
-                geoms = sorted({g for label in self.mask_labels if (e := self.entities.entity(label)) for g in e.geoms})
-                self.hook.capture_geoms = np.array(geoms, dtype=np.int64)
+                groups = {label: np.array(e.geoms, dtype=np.int64) for label in sorted(self.mask_labels)
+                          if (e := self.entities.entity(label)) is not None}
+                self.hook.capture_groups = groups
+                self.hook.capture_geoms = np.unique(np.concatenate(list(groups.values()) or [np.zeros(0, np.int64)]))
                 self.capture_renderer = CaptureRenderer(sim.model._model)
             else:
                 self.hook.capture_geoms, self.capture_renderer = None, None

@@ -98,6 +98,7 @@ class RenderHook:
     def __init__(self, edits: Mapping[str, SceneEdit], capture_geoms: np.ndarray | None = None):
         self.edits = dict(edits)
         self.capture_geoms = capture_geoms
+        self.capture_groups: dict[str, np.ndarray] | None = None  # label -> geoms, for per-entity windows
         self._ctx = None
         self._by_id: dict[int, SceneEdit] = {}
         self._names: dict[int, str] = {}
@@ -123,7 +124,7 @@ class RenderHook:
                 t0 = time.perf_counter()
                 self._captures[self._names[camera_id]] = capture(ctx, model, data, camera_id, width, height,
                                                                  self.capture_geoms, self.generation, drawable,
-                                                                 self._hulls)
+                                                                 self._hulls, self.capture_groups)
                 self.capture_seconds += time.perf_counter() - t0
 
         ctx.render = hooked_render  # instance attribute shadows the class method
