@@ -1,0 +1,165 @@
+"""The oracle skill by skill on real LIBERO envs (render-free), its plan from LIBERO's goal and the
+current state, and render-free episodes against rendered ones.
+
+Each skill test runs one skill alone from a task's first initial state and checks LIBERO's own
+predicate, not the skill's opinion of itself.
+"""
+import numpy as np
+import pytest
+
+from vpro_assets.benchmark.catalog import find_case, load_catalog
+from vpro_assets.core import paths
+from vpro_assets.core.errors import VProError
+from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.rollout.case_env import env_for_case
+from vpro_assets.rollout.episode import EpisodeSettings, run_episode
+from vpro_assets.rollout.policies.oracle import door, drawer, knob
+from vpro_assets.rollout.policies.oracle.grasp import pick
+from vpro_assets.rollout.policies.oracle.pick_place import pick_place
+from vpro_assets.rollout.policies.oracle.plan import plan
+from vpro_assets.rollout.policies.oracle.policy import OracleController, OraclePolicy, libero_holds
+from vpro_assets.rollout.policies.oracle.world import World
+from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES, NoopPolicy
+
+CATALOG = load_catalog(paths.catalog_path())
+
+
+class Scene:
+    """A render-free env of one case at one trial's initial state, after LIBERO's wait steps."""
+
+    def __init__(self, case_id: str, trial: int = 0):
+        self.case = find_case(CATALOG, case_id)
+        self.cenv = env_for_case(self.case, trial, render=False, reuse=False)
+        self.cenv.reset()
+        for _ in range(10):
+            self.cenv.step(NOOP_ACTION)
+        self.holds = libero_holds(self.cenv.env)
+        self.world = World(self.cenv.sim, self.cenv.task, self.holds)
+
+    def run(self, actions, limit: int) -> int:
+        """Step the skill's actions to its end (at most `limit`); the steps taken."""
+        for n, action in enumerate(actions, 1):
+            self.cenv.step(action)
+            assert n < limit, f"skill still running after {limit} steps"
+        return n
+
+    def close(self):
+        self.cenv.close()
+
+
+@pytest.fixture
+def scene(request):
+    made = []
+
+    def make(case_id, trial=0):
+        made.append(Scene(case_id, trial))
+        return made[-1]
+
+    yield make
+    for s in made:
+        s.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case_id", ["libero_10-03/normal", "libero_goal-03/normal", "libero_10-02/normal"])
+def test_whole_task_episode(case_id):
+    """Whole episodes of the tasks that chain skills (place then close, open then place, push, knob
+    then place, place then close a door): LIBERO's success within the suite's step limit."""
+    case = find_case(CATALOG, case_id)
+    row = run_episode(case, 0, OraclePolicy(), EpisodeSettings(render=False))
+    assert row["success"], case_id
+
+
+def test_drawer_opens_past_libero_open_threshold_then_closes_fully_home(scene):
+    s = scene("libero_goal-00/normal")  # open the middle drawer: its handle is under the top one's
+    region = "wooden_cabinet_1_middle_region"
+    joint = s.world.joint("wooden_cabinet_1_middle_level")
+    assert not s.holds(("open", region))
+    s.run(drawer.open_(s.world, region), limit=250)
+    assert s.world.qpos(joint) < -0.14  # LIBERO's WoodenCabinet: open below -0.14
+    assert s.holds(("open", region)) and s.cenv.success() and not s.holds(("close", region))
+    s.run(drawer.close(s.world, region), limit=300)
+    assert s.world.qpos(joint) > 0.0  # LIBERO: closed above 0
+    assert s.holds(("close", region))
+
+
+def test_door_closes_the_microwave(scene):
+    s = scene("libero_10-09/normal")  # the microwave starts open
+    assert s.holds(("open", "microwave_1")) and not s.holds(("close", "microwave_1"))
+    s.run(door.close(s.world, "microwave_1"), limit=300)
+    assert s.world.qpos(s.world.joint("microwave_1_microjoint")) > -0.005  # LIBERO's Microwave: closed above
+    assert s.holds(("close", "microwave_1"))
+
+
+def test_knob_turns_the_stove_on(scene):
+    s = scene("libero_goal-07/normal")
+    joint = s.world.joints_of("flat_stove_1")[0]
+    assert not s.holds(("turnon", "flat_stove_1"))
+    s.run(knob.switch(s.world, "flat_stove_1", on=True), limit=200)
+    assert s.world.qpos(joint) >= 0.5  # LIBERO's FlatStove: on from 0.5 rad
+    assert s.holds(("turnon", "flat_stove_1")) and s.cenv.success()
+
+
+def test_pick_place_bowl_onto_plate(scene):
+    s = scene("libero_goal-08/normal")
+    s.run(pick_place(s.world, "akita_black_bowl_1", "on", "plate_1"), limit=280)
+    assert s.holds(("on", "akita_black_bowl_1", "plate_1")) and s.cenv.success()
+
+
+def test_pick_lifts_objects_of_other_shapes(scene):
+    """A can lying in the basket scene and a wine bottle standing: the grasp comes from geometry."""
+    for case_id, obj in (("libero_object-05/normal", "tomato_sauce_1"), ("libero_goal-09/normal", "wine_bottle_1")):
+        s = scene(case_id)
+        z0 = s.world.body_pos(obj)[2]
+        s.run(pick(s.world, obj), limit=250)
+        assert s.world.body_pos(obj)[2] - z0 > 0.05, obj
+        assert s.world.held(obj), obj
+
+
+def test_plan_orders_skills_from_goal_and_state(scene):
+    # A closed drawer something goes into is opened first.
+    s = scene("libero_goal-03/normal")
+    assert [str(st) for st in plan(s.world, OracleController(s.cenv.env, s.cenv.task).goal, s.holds)] == [
+        "drawer(open wooden_cabinet_1_top_region)", "pick_place(in akita_black_bowl_1 wooden_cabinet_1_top_region)"]
+    # An open drawer is not opened again; it is closed after the bowl is in.
+    s = scene("libero_10-03/normal")
+    steps = [str(st) for st in plan(s.world, OracleController(s.cenv.env, s.cenv.task).goal, s.holds)]
+    assert steps == ["pick_place(in akita_black_bowl_1 white_cabinet_1_bottom_region)",
+                     "drawer(close white_cabinet_1_bottom_region)"]
+    # Knob before the pot; the goal's placements in order; a flat plate to a table region is pushed.
+    s = scene("libero_10-02/normal")
+    assert [st.skill for st in plan(s.world, OracleController(s.cenv.env, s.cenv.task).goal, s.holds)] == [
+        "knob", "pick_place"]
+    s = scene("libero_goal-05/normal")
+    assert [st.skill for st in plan(s.world, OracleController(s.cenv.env, s.cenv.task).goal, s.holds)] == ["push"]
+
+
+def test_oracle_is_the_eval_oracle_and_runs_render_free():
+    assert REFERENCE_POLICIES["oracle"] is OraclePolicy
+    assert OraclePolicy.uses_images is False
+
+
+def test_render_free_episode_equals_rendered():
+    """Same case and trial, with and without the renderer: same success, steps and final state."""
+    case = find_case(CATALOG, "libero_goal-07/normal")
+    rendered = run_episode(case, 0, OraclePolicy(), EpisodeSettings(resolution=64))
+    free = run_episode(case, 0, OraclePolicy(), EpisodeSettings(resolution=64, render=False))
+    assert rendered["success"] and free["success"]
+    assert (free["steps"], free["final_state"]) == (rendered["steps"], rendered["final_state"])
+
+
+def test_render_free_refuses_image_policies_and_videos():
+    class ImagePolicy(NoopPolicy):
+        uses_images = True
+
+    case = find_case(CATALOG, "libero_goal-07/normal")
+    with pytest.raises(VProError, match="acts on camera images"):
+        run_episode(case, 0, ImagePolicy(), EpisodeSettings(render=False))
+    with pytest.raises(VProError, match="video"):
+        EpisodeSettings(render=False, video_dir="x")
+
+
+def test_world_reads_geometry_not_names(scene):
+    s = scene("libero_spatial-00/normal")
+    box = s.world.box("akita_black_bowl_1")
+    assert np.all(box.size > 0.03) and box.lo[2] >= s.world.table_z - 1e-6
