@@ -9,6 +9,7 @@ fingerprint; the table gives each one's wall time and the ratio.
 
     .venv/bin/python scripts/bench_render_free.py --select libero_goal-07 --select libero_spatial-00 --trials 2
 """
+
 from __future__ import annotations
 
 import argparse
@@ -28,8 +29,11 @@ def main() -> int:
     p.add_argument("--trials", type=int, default=2)
     p.add_argument("--resolution", type=int, default=256)
     args = p.parse_args()
-    cases = [c for c in select_cases(load_catalog(paths.catalog_path()), args.select + ["normal"])
-             if not c.get("setting") and any(s in c["id"] for s in args.select)]
+    cases = [
+        c
+        for c in select_cases(load_catalog(paths.catalog_path()), args.select + ["normal"])
+        if not c.get("setting") and any(s in c["id"] for s in args.select)
+    ]
     print("| episode | steps | success | rendered s | render-free s | ratio | same final state |")
     print("|---|---|---|---|---|---|---|")
     ratios, steady = [], []
@@ -38,7 +42,9 @@ def main() -> int:
         for name, render in (("rendered", True), ("free", False)):
             for trial in range(args.trials):
                 t0 = time.perf_counter()
-                row = run_episode(case, trial, OraclePolicy(), EpisodeSettings(resolution=args.resolution, render=render))
+                row = run_episode(
+                    case, trial, OraclePolicy(), EpisodeSettings(resolution=args.resolution, render=render)
+                )
                 out[name].append((time.perf_counter() - t0, row))
         for trial in range(args.trials):
             (tr, rr), (tf, rf) = out["rendered"][trial], out["free"][trial]
@@ -46,10 +52,15 @@ def main() -> int:
             if trial:
                 steady.append(tr / tf)
             same = (rr["final_state"], rr["steps"], rr["success"]) == (rf["final_state"], rf["steps"], rf["success"])
-            print(f"| {case['id']} t{trial}{' (env built)' if trial == 0 else ''} | {rf['steps']} | {rf['success']} | "
-                  f"{tr:.1f} | {tf:.1f} | {tr / tf:.2f} | {same} |", flush=True)
-    print(f"\nmedian ratio rendered / render-free: {statistics.median(ratios):.2f} over {len(ratios)} episode pairs"
-          + (f"; {statistics.median(steady):.2f} with the env reused" if steady else ""))
+            print(
+                f"| {case['id']} t{trial}{' (env built)' if trial == 0 else ''} | {rf['steps']} | {rf['success']} | "
+                f"{tr:.1f} | {tf:.1f} | {tr / tf:.2f} | {same} |",
+                flush=True,
+            )
+    print(
+        f"\nmedian ratio rendered / render-free: {statistics.median(ratios):.2f} over {len(ratios)} episode pairs"
+        + (f"; {statistics.median(steady):.2f} with the env reused" if steady else "")
+    )
     return 0
 
 

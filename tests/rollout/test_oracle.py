@@ -4,6 +4,7 @@ current state, and render-free episodes against rendered ones.
 Each skill test runs one skill alone from a task's first initial state and checks LIBERO's own
 predicate, not the skill's opinion of itself.
 """
+
 import numpy as np
 import pytest
 
@@ -120,16 +121,22 @@ def test_plan_orders_skills_from_goal_and_state(scene):
     # A closed drawer something goes into is opened first.
     s = scene("libero_goal-03/normal")
     assert [str(st) for st in plan(s.world, OracleController(s.cenv.env, s.cenv.task).goal, s.holds)] == [
-        "drawer(open wooden_cabinet_1_top_region)", "pick_place(in akita_black_bowl_1 wooden_cabinet_1_top_region)"]
+        "drawer(open wooden_cabinet_1_top_region)",
+        "pick_place(in akita_black_bowl_1 wooden_cabinet_1_top_region)",
+    ]
     # An open drawer is not opened again; it is closed after the bowl is in.
     s = scene("libero_10-03/normal")
     steps = [str(st) for st in plan(s.world, OracleController(s.cenv.env, s.cenv.task).goal, s.holds)]
-    assert steps == ["pick_place(in akita_black_bowl_1 white_cabinet_1_bottom_region)",
-                     "drawer(close white_cabinet_1_bottom_region)"]
+    assert steps == [
+        "pick_place(in akita_black_bowl_1 white_cabinet_1_bottom_region)",
+        "drawer(close white_cabinet_1_bottom_region)",
+    ]
     # Knob before the pot; the goal's placements in order; a flat plate to a table region is pushed.
     s = scene("libero_10-02/normal")
     assert [st.skill for st in plan(s.world, OracleController(s.cenv.env, s.cenv.task).goal, s.holds)] == [
-        "knob", "pick_place"]
+        "knob",
+        "pick_place",
+    ]
     s = scene("libero_goal-05/normal")
     assert [st.skill for st in plan(s.world, OracleController(s.cenv.env, s.cenv.task).goal, s.holds)] == ["push"]
 

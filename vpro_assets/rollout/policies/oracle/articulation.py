@@ -5,6 +5,7 @@ a fixture with one joint (the microwave's door) needs no level. A joint opens to
 range farther from its closed value 0 (LIBERO's cabinets open at qpos < -0.14, the microwave at
 qpos < -1.3), and LIBERO's `Open` / `Close` checks decide when it is done.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -39,7 +40,7 @@ def joint_for(world: World, arg: str) -> Joint:
     joints = world.joints_of(fixture)
     if not joints:
         raise SkillFailed(f"{arg}: {fixture} has no hinge or slide joint")
-    levels = [w for w in LEVELS if f"_{w}_" in arg[len(fixture):] + "_"]
+    levels = [w for w in LEVELS if f"_{w}_" in arg[len(fixture) :] + "_"]
     named = [j for j in joints if any(w in world.joint_name(j) for w in levels)]
     j = (named or joints)[0]
     lo, hi = (float(x) for x in world.m.jnt_range[j])

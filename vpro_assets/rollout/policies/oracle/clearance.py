@@ -7,6 +7,7 @@ the object's footprint allows, slides sideways to the nearest spot with nothing 
 nothing in the way at that height), and only then rises. Obstacles are the world boxes of the
 other objects' and fixtures' collision geoms.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -7,6 +7,7 @@ a little inside its edge, and follow the door's arc, always aiming a little ahea
 angle, until LIBERO's `Close` check holds. Opening a closed door would need a grasp of its edge
 from outside; it is not in the oracle yet (no base task asks for it).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -64,7 +65,8 @@ def close(world: World, region: str) -> Actions:
         target = anchor + u_goal * r - n_goal * (thick * 0.5)
         target[2] = mid_z
         yield motion.action_to(world, target, CLOSE, orient, speed=0.6)
-    yield from motion.move_to(world, world.eef() - push_dir * 0.05 + [0, 0, 0.05], CLOSE, orient, tol=0.02,
-                              max_steps=30)
+    yield from motion.move_to(
+        world, world.eef() - push_dir * 0.05 + [0, 0, 0.05], CLOSE, orient, tol=0.02, max_steps=30
+    )
     if not world.holds(goal):
         raise SkillFailed(f"{region} did not close (hinge at {world.qpos(joint.id):.3f})")

@@ -11,6 +11,7 @@ bottom drawer), push on the handle along the axis until LIBERO's `Close` check h
 count as closed only once pushed fully home, where a hand pointing down would hit the handles
 above).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -44,7 +45,7 @@ def handle_point(world: World, joint: Joint) -> np.ndarray:
     return (pts.min(0) + pts.max(0)) / 2
 
 
-def face_handle(world: World, joint: Joint, grip: float, standoff: float, vertical: bool) -> Actions:
+def face_handle(world: World, joint: Joint, grip: float, standoff: float, vertical: bool) -> motion.Posing:
     """Bring the hand, facing the drawer, to `standoff` in front of the handle; the orientation.
     `vertical`: the fingers close vertically (to pinch a horizontal bar); else horizontally, which
     keeps the hand's long side off the table in front of a bottom drawer."""

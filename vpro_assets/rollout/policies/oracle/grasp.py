@@ -7,6 +7,7 @@ horizontal principal axes give the direction across which it is narrowest. An ob
 for the open fingers is pinched across that direction; a wider one (bowls, mugs, baskets) is
 pinched at its wall, the fingers closing radially on the side nearest the robot.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -82,6 +83,7 @@ def plan_grasp(world: World, instance: str) -> Grasp:
             return grasp
         if best is None or hits < best[0]:
             best = (hits, grasp)
+    assert best is not None  # WALL_SIDES candidates were scored
     return best[1]
 
 
@@ -119,8 +121,9 @@ def pick(world: World, instance: str, attempts: int = 3) -> Actions:
         yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.006, max_steps=80, speed=0.6)
         yield from motion.gripper(world, CLOSE, orient=orient)
         yield from lift_clear(world, instance, world.table_z + CLEAR_ABOVE_TABLE_M)
-        yield from motion.move_to(world, world.eef() + [0, 0, LIFT_M], CLOSE, orient, tol=0.015, max_steps=60,
-                                  speed=0.5)
+        yield from motion.move_to(
+            world, world.eef() + [0, 0, LIFT_M], CLOSE, orient, tol=0.015, max_steps=60, speed=0.5
+        )
         if world.body_pos(instance)[2] - start_z > MIN_LIFT_M and world.finger_gap() > 0.002:
             return
         yield from motion.gripper(world, OPEN, orient=orient)

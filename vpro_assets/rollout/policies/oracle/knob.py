@@ -5,6 +5,7 @@ horizontal direction (its own geometry, as any grasp) with the grip site on the 
 turning the wrist about the vertical turns the knob about its axis. LIBERO's `TurnOn` holds at
 qpos >= 0.5, `TurnOff` at qpos < 0: the wrist turns toward the end of the range it needs.
 """
+
 from __future__ import annotations
 
 import numpy as np

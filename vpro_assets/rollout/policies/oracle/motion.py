@@ -6,9 +6,10 @@ the grip site's error, clipped to the action box; orientation keeps the gripper 
 turns it about the vertical to a commanded yaw (the error rotation through MuJoCo's
 `mju_mat2Quat` / `mju_quat2Vel`). robosuite's OSC_POSE scales an action of 1 to 5 cm and 0.5 rad.
 """
+
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 
 import mujoco
 import numpy as np
@@ -17,6 +18,7 @@ from vpro_assets.core.mjgeom import axis_angle_quat, quat_matrix
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 Actions = Iterator[np.ndarray]
+Posing = Generator[np.ndarray, None, np.ndarray]  # actions, then the orientation reached
 
 OSC_MAX_STEP_M = 0.05  # OSC_POSE output_max for position
 OSC_MAX_ROT = 0.5  # OSC_POSE output_max for rotation (rad)
@@ -48,6 +50,7 @@ def facing(approach, fingers, current: np.ndarray | None = None) -> np.ndarray:
         angle = 0.0 if current is None else float(np.linalg.norm(rotation_error(current, mat)))
         if angle < best_angle:
             best, best_angle = mat, angle
+    assert best is not None  # two candidates, one always kept
     return best
 
 
@@ -60,8 +63,9 @@ def rotation_error(current: np.ndarray, goal: np.ndarray) -> np.ndarray:
     return vel
 
 
-def action_to(world: World, goal: np.ndarray, grip: float, orient: np.ndarray | None = None,
-              speed: float = 1.0) -> np.ndarray:
+def action_to(
+    world: World, goal: np.ndarray, grip: float, orient: np.ndarray | None = None, speed: float = 1.0
+) -> np.ndarray:
     """One action moving the grip site toward `goal` (and the hand toward `orient`)."""
     delta = np.clip((np.asarray(goal) - world.eef()) / OSC_MAX_STEP_M * GAIN, -speed, speed)
     rot = np.zeros(3)
@@ -70,19 +74,29 @@ def action_to(world: World, goal: np.ndarray, grip: float, orient: np.ndarray | 
     return np.concatenate([delta, rot, [grip]])
 
 
-def move_to(world: World, goal, grip: float, orient: np.ndarray | None = None, tol: float = TOL_M,
-            max_steps: int = 120, speed: float = 1.0, strict: bool = False) -> Actions:
+def move_to(
+    world: World,
+    goal,
+    grip: float,
+    orient: np.ndarray | None = None,
+    tol: float = TOL_M,
+    max_steps: int = 120,
+    speed: float = 1.0,
+    strict: bool = False,
+) -> Actions:
     """Drive the grip site to `goal` (within `tol`); gives up after `max_steps` (SkillFailed when
     `strict`)."""
     goal = np.asarray(goal, dtype=float)
     for _ in range(max_steps):
-        if np.linalg.norm(goal - world.eef()) < tol and (orient is None or
-                                                        np.linalg.norm(rotation_error(world.eef_mat(), orient)) < 0.05):
+        if np.linalg.norm(goal - world.eef()) < tol and (
+            orient is None or np.linalg.norm(rotation_error(world.eef_mat(), orient)) < 0.05
+        ):
             return
         yield action_to(world, goal, grip, orient, speed)
     if strict:
-        raise SkillFailed(f"grip site did not reach {np.round(goal, 3).tolist()} "
-                          f"(at {np.round(world.eef(), 3).tolist()})")
+        raise SkillFailed(
+            f"grip site did not reach {np.round(goal, 3).tolist()} (at {np.round(world.eef(), 3).tolist()})"
+        )
 
 
 def gripper(world: World, grip: float, steps: int = GRIPPER_STEPS, orient: np.ndarray | None = None) -> Actions:

@@ -9,6 +9,7 @@ destination's centre. The carry height clears every obstacle in the corridor bet
 the destination (their world boxes); the object is lowered until it touches something or reaches
 the destination's surface, then released.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -68,7 +69,8 @@ def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
 def _drawer_region(world: World, arg: str) -> bool:
     owner = owner_of(world, arg)
     return owner in dict(world.task.fixtures) and any(
-        world.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE for j in world.joints_of(owner))
+        world.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE for j in world.joints_of(owner)
+    )
 
 
 def support_height(world: World, xy: np.ndarray, exclude: tuple[str, ...] = (), radius: float = 0.02) -> float:
@@ -109,8 +111,7 @@ def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()
     for _ in range(3):  # re-aim as the held object swings
         check_held(world, held, hang)
         offset = world.eef()[:2] - world.body_pos(held)[:2]
-        yield from motion.move_to(world, [*(xy + offset), z], CLOSE, orient, tol=0.01, max_steps=120,
-                                  speed=CARRY_SPEED)
+        yield from motion.move_to(world, [*(xy + offset), z], CLOSE, orient, tol=0.01, max_steps=120, speed=CARRY_SPEED)
     check_held(world, held, hang)
 
 
@@ -142,4 +143,3 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions
     dest = resolve(world, relation, dest_arg, held)
     yield from carry(world, held, dest.xy)
     yield from lower_and_release(world, held, dest)
-

@@ -9,10 +9,12 @@ predicate functions, so a predicate that already holds gets no skill. The order:
 4. close what the goal asks closed (after whatever goes inside).
 A flat object too wide to pinch that must go onto a table region is pushed there.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 from vpro_assets.rollout.policies.oracle import door, drawer, knob, push
 from vpro_assets.rollout.policies.oracle.articulation import needs_opening, owner_of
@@ -62,30 +64,47 @@ def _pushable(world: World, obj: str, dest: str) -> bool:
     return table_region and height < PUSH_MAX_HEIGHT_M and proj.max() - proj.min() > MAX_PINCH_M
 
 
+def _switch(world: World, fixture: str, on: bool) -> Actions:
+    return knob.switch(world, fixture, on=on)
+
+
+def _push(world: World, obj: str, region: str) -> Actions:
+    return push.push_to(world, obj, region)
+
+
+def _pick_place(world: World, held: str, relation: str, dest: str) -> Actions:
+    return pick_place(world, held, relation, dest)
+
+
 def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, ...]], bool]) -> list[Step]:
     """Steps for the goal predicates that do not hold yet, in dependency order."""
     todo = [(g[0].lower(), *g[1:]) for g in goal if not holds(tuple(g))]
     steps: list[Step] = []
     for pred in todo:
         if pred[0] in ("turnon", "turnoff"):
-            steps.append(Step("knob", pred, lambda w, p=pred: knob.switch(w, p[1], on=p[0] == "turnon")))
+            steps.append(Step("knob", pred, partial(_switch, fixture=pred[1], on=pred[0] == "turnon")))
     opened: set[str] = set()
     for pred in todo:
         if pred[0] == "open":
             steps.append(_open_step(world, pred[1], True))
             opened.add(pred[1])
     for pred in todo:
-        if (pred[0] == "in" and _articulated(world, pred[2]) and pred[2] not in opened
-                and not holds(("open", pred[2])) and needs_opening(world, pred[2])):
+        if (
+            pred[0] == "in"
+            and _articulated(world, pred[2])
+            and pred[2] not in opened
+            and not holds(("open", pred[2]))
+            and needs_opening(world, pred[2])
+        ):
             steps.append(_open_step(world, pred[2], True))
             opened.add(pred[2])
     for pred in todo:
         if pred[0] in PLACEMENT:
             _, obj, dest = pred
             if _pushable(world, obj, dest):
-                steps.append(Step("push", pred, lambda w, o=obj, d=dest: push.push_to(w, o, d)))
+                steps.append(Step("push", pred, partial(_push, obj=obj, region=dest)))
             else:
-                steps.append(Step("pick_place", pred, lambda w, r=pred[0], o=obj, d=dest: pick_place(w, o, r, d)))
+                steps.append(Step("pick_place", pred, partial(_pick_place, held=obj, relation=pred[0], dest=dest)))
     for pred in todo:
         if pred[0] == "close":
             steps.append(_open_step(world, pred[1], False))
@@ -94,4 +113,3 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
 
 def unmet(goal: list[tuple[str, ...]], holds: Callable[[tuple[str, ...]], bool]) -> list[tuple[str, ...]]:
     return [tuple(g) for g in goal if not holds(tuple(g))]
-

@@ -6,6 +6,7 @@ parsed goal of the env and the current state; the skills' actions follow one per
 fails (`SkillFailed`: a grasp slipped, a drawer did not move) is logged and the plan is made again
 from the state then, up to `MAX_REPLANS` times; when nothing is left to do it holds still.
 """
+
 from __future__ import annotations
 
 import logging

@@ -6,6 +6,7 @@ position each step, until LIBERO's `On` check holds. Pushing from inside keeps t
 object: behind it there may be no room (libero_goal's plate lies 4 cm in front of the cabinet).
 The hand turns so the fingers line up across the push (a wider pusher).
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -5,6 +5,7 @@ Everything is read from MuJoCo's model and data (`sim.model._model`, `sim.data._
 images. A `World` belongs to one sim: robosuite rebuilds the sim on a hard reset, so the policy
 makes a new `World` after each reset.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -95,7 +96,9 @@ class World:
 
     @cached_property
     def gripper_geoms(self) -> frozenset[int]:
-        return frozenset(g for g in range(self.m.ngeom) if self._body_name(self.m.geom_bodyid[g]).startswith(GRIPPER_PREFIX))
+        return frozenset(
+            g for g in range(self.m.ngeom) if self._body_name(self.m.geom_bodyid[g]).startswith(GRIPPER_PREFIX)
+        )
 
     def _body_name(self, b) -> str:
         return mujoco.mj_id2name(self.m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or ""
@@ -135,8 +138,12 @@ class World:
     def joints_of(self, instance: str) -> list[int]:
         """Hinge and slide joints of an articulated fixture."""
         bodies = set(self.entity(instance).bodies)
-        return [j for j in range(self.m.njnt) if self.m.jnt_bodyid[j] in bodies
-                and self.m.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)]
+        return [
+            j
+            for j in range(self.m.njnt)
+            if self.m.jnt_bodyid[j] in bodies
+            and self.m.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
+        ]
 
     def joint_name(self, joint: int) -> str:
         return mujoco.mj_id2name(self.m, mujoco.mjtObj.mjOBJ_JOINT, joint) or ""
