@@ -93,6 +93,19 @@ class EpisodeSession:
         self.success = False
         check_available(case)
 
+    @property
+    def env(self) -> CaseEnv:
+        """The episode's env (after `start`)."""
+        if self.cenv is None:
+            raise VProError(f"case {self.case['id']} trial {self.trial}: episode used before start()")
+        return self.cenv
+
+    @property
+    def contact_tracker(self) -> ContactTracker:
+        if self.contacts is None:
+            raise VProError(f"case {self.case['id']} trial {self.trial}: episode used before start()")
+        return self.contacts
+
     def episode_info(self) -> EpisodeInfo:
         return EpisodeInfo(instruction=self.instruction, case_id=self.case["id"], trial=self.trial, seed=self.seed,
                            suite=self.case["suite"], task=self.case["task"])
@@ -115,7 +128,7 @@ class EpisodeSession:
         every view of a render-free episode)."""
         if not self.settings.render:
             return dict.fromkeys(CAMERAS)
-        return self.cenv.policy_images(obs, self.t)
+        return self.env.policy_images(obs, self.t)
 
     def observation(self, obs: dict, images: dict | None = None) -> Observation:
         images = self.policy_images(obs) if images is None else images
@@ -123,11 +136,11 @@ class EpisodeSession:
 
     def step(self, action) -> dict:
         """One policy step; the raw observation after it."""
-        obs, done = self.cenv.step(action)
+        obs, done = self.env.step(action)
         self.t += 1
         self.steps += 1
-        self.contacts.update(self.t)
-        if done and self.cenv.success():
+        self.contact_tracker.update(self.t)
+        if done and self.env.success():
             self.success = True
         return obs
 
@@ -137,9 +150,9 @@ class EpisodeSession:
 
     def result(self, video: str | None = None) -> dict:
         return {"success": self.success, "steps": self.steps, "seed": self.seed,
-                "phase_timeline": self.cenv.phase_timeline(), "contact": self.contacts.summary(),
-                "artifact_hashes": self.cenv.artifact_hashes, "wall_time": time.time() - self.started,
-                "video": video, "final_state": self.cenv.state_digest()}
+                "phase_timeline": self.env.phase_timeline(), "contact": self.contact_tracker.summary(),
+                "artifact_hashes": self.env.artifact_hashes, "wall_time": time.time() - self.started,
+                "video": video, "final_state": self.env.state_digest()}
 
     def close(self) -> None:
         if self.cenv is not None:
@@ -183,7 +196,7 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
                 n = getattr(policy, "replan_steps", None) or len(actions)
                 plan.extend(actions[:n])
                 if out.predicted_frames is not None:
-                    session.cenv.feed_predicted(out.predicted_frames)
+                    session.env.feed_predicted(out.predicted_frames)
             if settings.video_dir:
                 frames.append(_video_frame(obs, images))
             obs = session.step(plan.popleft())
@@ -210,7 +223,8 @@ def _write_video(video_dir: str, case_id: str, trial: int, frames: list) -> str 
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp.mp4")
     h, w = frames[0].shape[:2]
-    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), 20, (w, h))
+    fourcc = cv2.VideoWriter.fourcc(*"mp4v")
+    writer = cv2.VideoWriter(str(tmp), fourcc, 20, (w, h))
     for f in frames:
         writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
     writer.release()
