@@ -34,7 +34,7 @@ from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.env import NOOP_ACTION, libero_init_states, make_env
 from vpro_assets.libero.tasks import get_task
-from vpro_assets.perturb import build_pipeline
+from vpro_assets.perturb import ObservationPipeline, build_pipeline
 from vpro_assets.rollout.policies.scripted import PickPlaceController
 
 log = logging.getLogger(__name__)
@@ -147,7 +147,7 @@ def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolutio
             env.reset()
             state = libero_init_states(task)[0]
             clean_pipe = build_pipeline({"id": f"{key}/normal", "setting": None}, task)
-            pipes = [(None, clean_pipe)]
+            pipes: list[tuple[tx.Setting | None, ObservationPipeline]] = [(None, clean_pipe)]
             for s in group:
                 case = {"id": f"{key}/{s.id.removeprefix('vpro/')}", "setting": s.id, "params": s.param_dict}
                 mask_paths = ("capture", "reference") if mask_path == "both" else (mask_path,)
@@ -166,8 +166,8 @@ def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolutio
                     previous = following
                     if progress:
                         progress.update(1)
-            for i, (s, pipe) in enumerate(pipes):
-                rows.append(_row(s, pipe, key, steps, resolution, runs[i]))
+            for i, (setting, pipe) in enumerate(pipes):
+                rows.append(_row(setting, pipe, key, steps, resolution, runs[i]))
         finally:
             env.close()
     return rows
@@ -221,7 +221,7 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         met = "" if r["setting"] == CONTROL else (f"{'yes' if r['meets_goal'] else '**no**'} / "
                                                     f"{'yes' if r.get('overhead_meets_goal', r['meets_goal']) else '**no**'}")
         rng = f"{r['ratio_min']:.3f}-{r['ratio_max']:.3f}" if "ratio_min" in r else ""
-        masks = {"capture": "yes", "reference": "yes, full-scene segmentation"}.get(r.get("mask_path"), "no")
+        masks = {"capture": "yes", "reference": "yes, full-scene segmentation"}.get(str(r.get("mask_path")), "no")
         lines.append(f"| `{r['setting']}` | {r['task']} | {masks} | "
                      f"{r['clean_step_ms']:.0f} | {r['perturbed_step_ms']:.0f} | {r['ratio']:.3f} | {rng} | "
                      f"{r.get('added_ms', 0):.1f} | {r.get('overhead_ratio', r['ratio']):.3f} | "

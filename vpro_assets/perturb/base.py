@@ -71,7 +71,7 @@ class MaskSource:
         cap = self.captures.get(camera)
         usable = (cap is not None and self.renderer is not None and label in self.captured_labels
                   and (cap.height, cap.width) == tuple(self.shapes[camera]))
-        if not usable:
+        if not usable or cap is None or self.renderer is None:  # (the last two for the type checker)
             return self.geom_ids(camera)
         if camera not in self._captured_ids:
             self._captured_ids[camera] = self.renderer.draw_ids(render_context(self.sim), cap)

@@ -44,7 +44,7 @@ class Capture:
     width: int
     height: int
     entries: list[dict]  # scene_edits snapshots, in the scene's draw order
-    cameras: tuple[dict, dict]  # the scene's two GL cameras (stereo halves; equal in mono)
+    cameras: tuple[dict, ...]  # the scene's two GL cameras (stereo halves; equal in mono)
     generation: int  # RenderHook's capture counter when taken
     window: tuple[int, int, int, int] | None = None  # pixels (x0, y0, x1, y1) to draw; None: nothing
     label_windows: dict[str, tuple[int, int, int, int] | None] | None = None  # per entity, same bounds

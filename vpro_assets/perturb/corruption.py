@@ -44,7 +44,7 @@ class Corruption(Perturbation):
             self.bursts = BurstSchedule(episode.rng("corruption-bursts"), self.onset_prob, self.burst_steps)
 
     def active(self, step: Step) -> bool:
-        if self.trigger == "frequency":
+        if self.bursts is not None:  # frequency-triggered
             return self.bursts.active(step.index)
         return step.phase.phase == self.phase
 

@@ -100,7 +100,7 @@ class PhaseTracker:
                 self.grasp_onset = step
                 self._phase = max(self._phase, 1)
                 self._grasp_height = float(data.xpos[obj.root][2])
-            if ent.target is not None and self.grasp_onset is not None:
+            if ent.target is not None and self.grasp_onset is not None and self._grasp_height is not None:
                 height = float(data.xpos[obj.root][2])
                 if self._phase == 1 and both and height > self._grasp_height + LIFT_M:
                     self._phase = 2

@@ -132,12 +132,12 @@ class ObservationPipeline:
     def observe(self, raw_obs: Mapping[str, np.ndarray], sim,
                 predicted_frames: Mapping[str, np.ndarray] | None = None) -> dict:
         """The observation the policy receives for the raw observation of the current step."""
-        if self.episode is None:
+        if self.episode is None or self.tracker is None or self.entities is None:
             raise VProError(f"case {self.case_id}: call reset(trial, sim) before observe()")
         self.step_index += 1
         phase = self.tracker.update(sim)
         clean = {cam: raw_obs[image_key(cam)] for cam in self.all_cameras if image_key(cam) in raw_obs}
-        shapes = {cam: frame.shape[:2] for cam, frame in clean.items()}
+        shapes = {cam: (frame.shape[0], frame.shape[1]) for cam, frame in clean.items()}
         captures = self.hook.take() if self.hook is not None else {}
         masks = MaskSource(sim, self.entities, shapes, captures, self.capture_renderer, self.mask_labels)
         step = Step(self.step_index, phase, clean, masks, predicted_frames)

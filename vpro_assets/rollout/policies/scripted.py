@@ -79,6 +79,11 @@ class PickPlaceController:
     def _target_box(self) -> Box:
         return world_box(self.sim.model._model, self.sim.data._data, self.entities.target.geoms)
 
+    def _planned_grasp(self) -> np.ndarray:
+        if self.grasp_point is None:  # planned in the "approach" stage, which comes first
+            raise VProError("scripted policy: grasp point used before it was planned")
+        return self.grasp_point
+
     def _plan_grasp(self) -> np.ndarray:
         box = self._target_box()
         width, height = max(box.size[0], box.size[1]), box.size[2]
@@ -123,14 +128,15 @@ class PickPlaceController:
                 self._advance("descend")
             return self._move(goal, -1.0)
         if self.stage == "descend":
-            if np.linalg.norm(self.grasp_point - eef) < TOLERANCE_M:
+            point = self._planned_grasp()
+            if np.linalg.norm(point - eef) < TOLERANCE_M:
                 self._advance("close")
-            return self._move(self.grasp_point, -1.0)
+            return self._move(point, -1.0)
         if self.stage == "close":
             if self.stage_steps >= GRIPPER_STEPS:
                 self._advance("lift")
                 self.carry_z = eef[2] + LIFT_M
-            return self._move(self.grasp_point, 1.0)
+            return self._move(self._planned_grasp(), 1.0)
         if self.stage == "lift":
             goal = np.array([eef[0], eef[1], self.carry_z])
             if abs(goal[2] - eef[2]) < 2 * TOLERANCE_M:
