@@ -25,6 +25,8 @@ COMMAND_MODULES = (
     "vpro_assets.commands.report_cmd",
     "vpro_assets.commands.preview_cmd",
     "vpro_assets.commands.bench_cmd",
+    "vpro_assets.commands.settle_cmd",
+    "vpro_assets.commands.drift_cmd",
 )
 
 
