@@ -8,6 +8,7 @@
 
 Usage: .venv/bin/python scripts/bench_rollout.py [--episodes 4] [--steps 100] [--json out.json]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -20,8 +21,7 @@ from pathlib import Path
 
 
 def bare_loop(task, state, steps: int, resolution: int) -> float:
-    from vpro_assets.libero.env import NOOP_ACTION
-    from vpro_assets.libero.env import make_env
+    from vpro_assets.libero.env import NOOP_ACTION, make_env
 
     env = make_env(task, resolution)
     try:
@@ -90,12 +90,24 @@ def episodes_per_hour(cases, trials: int, workers: int, resolution: int) -> dict
 
     with tempfile.TemporaryDirectory() as tmp:
         t = time.perf_counter()
-        summary = run_eval(cases, results=Path(tmp) / "b.sqlite", policy_spec="noop", trials=trials, workers=workers,
-                           settings=EpisodeSettings(resolution=resolution), retries=0)
+        summary = run_eval(
+            cases,
+            results=Path(tmp) / "b.sqlite",
+            policy_spec="noop",
+            trials=trials,
+            workers=workers,
+            settings=EpisodeSettings(resolution=resolution),
+            retries=0,
+        )
         elapsed = time.perf_counter() - t
     n = sum(summary.counts.values())
-    return {"workers": workers, "episodes": n, "seconds": elapsed, "episodes_per_hour": 3600 * n / elapsed,
-            "counts": summary.counts}
+    return {
+        "workers": workers,
+        "episodes": n,
+        "seconds": elapsed,
+        "episodes_per_hour": 3600 * n / elapsed,
+        "counts": summary.counts,
+    }
 
 
 def main() -> None:
@@ -107,9 +119,8 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
 
+    from vpro_assets.benchmark.catalog import find_case, load_catalog
     from vpro_assets.core import paths
-    from vpro_assets.benchmark.catalog import find_case
-    from vpro_assets.benchmark.catalog import load_catalog
     from vpro_assets.libero.env import libero_init_states
     from vpro_assets.libero.tasks import get_task
 
@@ -126,12 +137,24 @@ def main() -> None:
         inside.append(env_step)
         own.append(total - env_step)
     ms = lambda xs: round(1000 * statistics.median(xs), 2)  # noqa: E731
-    out = {"load_average_start": load_start, "cpus": os.cpu_count(), "resolution": args.resolution,
-           "overhead": {"steps": args.steps, "rounds": args.rounds, "bare_step_s": bare, "runner_step_s": runner,
-                        "runner_env_step_s": inside, "runner_own_s": own,
-                        "bare_median_ms": ms(bare), "runner_median_ms": ms(runner),
-                        "runner_env_step_median_ms": ms(inside), "runner_own_median_ms": ms(own),
-                        "difference_median_ms": ms(runner) - ms(bare)}}
+    out = {
+        "load_average_start": load_start,
+        "cpus": os.cpu_count(),
+        "resolution": args.resolution,
+        "overhead": {
+            "steps": args.steps,
+            "rounds": args.rounds,
+            "bare_step_s": bare,
+            "runner_step_s": runner,
+            "runner_env_step_s": inside,
+            "runner_own_s": own,
+            "bare_median_ms": ms(bare),
+            "runner_median_ms": ms(runner),
+            "runner_env_step_median_ms": ms(inside),
+            "runner_own_median_ms": ms(own),
+            "difference_median_ms": ms(runner) - ms(bare),
+        },
+    }
     cases = [find_case(catalog, f"libero_spatial-0{i}/normal") for i in range(2)]
     trials = max(1, args.episodes // len(cases))
     out["throughput"] = [episodes_per_hour(cases, trials, w, args.resolution) for w in (1, 2)]

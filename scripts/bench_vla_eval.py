@@ -13,6 +13,7 @@ Episodes per hour are per core: 3600 / (CPU seconds per episode).
 
     nice -n 10 .venv/bin/python scripts/bench_vla_eval.py --rounds 1 --out out/bench/vla-eval
 """
+
 from __future__ import annotations
 
 import argparse
@@ -44,8 +45,19 @@ def free_port() -> int:
 def start_server(log: Path) -> tuple[subprocess.Popen, str]:
     port = free_port()
     with open(log, "w") as out:
-        proc = subprocess.Popen([sys.executable, "-m", "vpro_assets.integrations.vla_eval.server", "--host",
-                                 "127.0.0.1", "--port", str(port)], stdout=out, stderr=subprocess.STDOUT)
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "vpro_assets.integrations.vla_eval.server",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+            ],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+        )
     for _ in range(400):
         try:
             with urllib.request.urlopen(f"http://127.0.0.1:{port}/health", timeout=2):
@@ -84,8 +96,18 @@ class Tree:
 
 
 def vpro_cmd(out: Path, trials: int) -> list[str]:
-    cmd = [str(BIN / "vpro"), "eval", "--policy", "noop", "--trials", str(trials), "--workers", "1",
-           "--results", str(out / "vpro.sqlite")]
+    cmd = [
+        str(BIN / "vpro"),
+        "eval",
+        "--policy",
+        "noop",
+        "--trials",
+        str(trials),
+        "--workers",
+        "1",
+        "--results",
+        str(out / "vpro.sqlite"),
+    ]
     for c in CASES:
         cmd += ["--select", c]
     return cmd
@@ -94,20 +116,47 @@ def vpro_cmd(out: Path, trials: int) -> list[str]:
 def vla_cmd(out: Path, url: str, trials: int, image_format: str) -> list[str]:
     config = out / "config.yaml"
     params = {"select": CASES, "image_format": image_format}
-    config.write_text(yaml.safe_dump({"benchmarks": [{"benchmark": BENCHMARK, "subname": "bench", "mode": "sync",
-                                                      "episodes_per_task": trials, "params": params}]}))
-    return [str(BIN / "vla-eval"), "run", "--no-docker", "-c", str(config), "--server-url", url,
-            "--output-dir", str(out / "results")]
+    config.write_text(
+        yaml.safe_dump(
+            {
+                "benchmarks": [
+                    {
+                        "benchmark": BENCHMARK,
+                        "subname": "bench",
+                        "mode": "sync",
+                        "episodes_per_task": trials,
+                        "params": params,
+                    }
+                ]
+            }
+        )
+    )
+    return [
+        str(BIN / "vla-eval"),
+        "run",
+        "--no-docker",
+        "-c",
+        str(config),
+        "--server-url",
+        url,
+        "--output-dir",
+        str(out / "results"),
+    ]
 
 
 def episodes(path: str, out: Path) -> list[dict]:
     if path == "vpro":
         con = sqlite3.connect(out / "vpro.sqlite")
-        rows = [{"case": c, "steps": n, "status": s} for c, n, s in con.execute("SELECT case_id, steps, status FROM episodes")]
+        rows = [
+            {"case": c, "steps": n, "status": s}
+            for c, n, s in con.execute("SELECT case_id, steps, status FROM episodes")
+        ]
     else:
         con = sqlite3.connect(next((out / "results").glob("recording-*.sqlite")))
-        rows = [{"case": json.loads(m).get("case_id"), "steps": n, "status": s}
-                for m, n, s in con.execute("SELECT metrics, steps, status FROM episode_results")]
+        rows = [
+            {"case": json.loads(m).get("case_id"), "steps": n, "status": s}
+            for m, n, s in con.execute("SELECT metrics, steps, status FROM episode_results")
+        ]
     con.close()
     return rows
 
@@ -129,8 +178,11 @@ def main() -> int:
                 d.mkdir(parents=True, exist_ok=False)
             server_cpu0 = cpu_seconds(sproc)
             logs = {p: open(dirs[p] / "log.txt", "w") for p in dirs}  # noqa: SIM115 - closed below
-            cmds = {"vpro": vpro_cmd(dirs["vpro"], args.trials), "vla": vla_cmd(dirs["vla"], url, args.trials, "png"),
-                    "vla-raw": vla_cmd(dirs["vla-raw"], url, args.trials, "raw")}
+            cmds = {
+                "vpro": vpro_cmd(dirs["vpro"], args.trials),
+                "vla": vla_cmd(dirs["vla"], url, args.trials, "png"),
+                "vla-raw": vla_cmd(dirs["vla-raw"], url, args.trials, "raw"),
+            }
             trees = {p: Tree(subprocess.Popen(cmds[p], stdout=logs[p], stderr=subprocess.STDOUT)) for p in PATHS}
             while any(t.ended is None for t in trees.values()):
                 for t in trees.values():
@@ -148,8 +200,16 @@ def main() -> int:
                 eps = episodes(path, dirs[path])
                 # the server's CPU, shared by the two vla-eval runs, is counted in full against each
                 cpu = t.cpu + (server_cpu if path != "vpro" else 0.0)
-                rows.append({"round": rnd, "path": path, "wall_s": round(t.ended - t.started, 1), "cpu_s": round(cpu, 1),
-                             "server_cpu_s": round(server_cpu, 1) if path != "vpro" else None, "episodes": eps})
+                rows.append(
+                    {
+                        "round": rnd,
+                        "path": path,
+                        "wall_s": round(t.ended - t.started, 1),
+                        "cpu_s": round(cpu, 1),
+                        "server_cpu_s": round(server_cpu, 1) if path != "vpro" else None,
+                        "episodes": eps,
+                    }
+                )
                 print(json.dumps(rows[-1]), flush=True)  # noqa: T201
     finally:
         server.terminate()
@@ -160,9 +220,14 @@ def main() -> int:
         n = sum(len(r["episodes"]) for r in mine)
         steps = sum(e["steps"] or 0 for r in mine for e in r["episodes"])
         cpu = sum(r["cpu_s"] for r in mine)
-        summary[path] = {"episodes": n, "policy_steps": steps, "cpu_s": round(cpu, 1),
-                         "cpu_s_per_episode": round(cpu / n, 2), "episodes_per_cpu_hour": round(3600 * n / cpu, 1),
-                         "wall_s": round(sum(r["wall_s"] for r in mine), 1)}
+        summary[path] = {
+            "episodes": n,
+            "policy_steps": steps,
+            "cpu_s": round(cpu, 1),
+            "cpu_s_per_episode": round(cpu / n, 2),
+            "episodes_per_cpu_hour": round(3600 * n / cpu, 1),
+            "wall_s": round(sum(r["wall_s"] for r in mine), 1),
+        }
     for path in PATHS[1:]:
         summary[f"cpu_ratio_{path}_over_vpro"] = round(summary[path]["cpu_s"] / summary["vpro"]["cpu_s"], 4)
     (args.out / "summary.json").write_text(json.dumps({"rounds": rows, "summary": summary}, indent=1))

@@ -6,6 +6,7 @@ the body's orientation. Prints the `UP_AXES` table of `vpro_assets/objects/defor
 
     .venv/bin/python scripts/measure_up_axes.py
 """
+
 from __future__ import annotations
 
 import json
@@ -16,8 +17,8 @@ import numpy as np
 def main() -> None:
     import mujoco
 
-    from vpro_assets.libero import bridge as libero_bridge
     from vpro_assets.core import paths
+    from vpro_assets.libero import bridge as libero_bridge
     from vpro_assets.libero.tasks import get_task
 
     catalog = json.loads(paths.catalog_path().read_text())
@@ -29,8 +30,12 @@ def main() -> None:
     envs = libero_bridge.libero_envs()
     table = {}
     for category, task in sorted(tasks.items()):
-        env = envs.OffScreenRenderEnv(bddl_file_name=str(libero_bridge.bddl_path(task.suite, task.name)),
-                                      has_renderer=False, has_offscreen_renderer=False, use_camera_obs=False)
+        env = envs.OffScreenRenderEnv(
+            bddl_file_name=str(libero_bridge.bddl_path(task.suite, task.name)),
+            has_renderer=False,
+            has_offscreen_renderer=False,
+            use_camera_obs=False,
+        )
         try:
             env.reset()
             quat = env.sim.data.body_xquat[env.sim.model.body_name2id(f"{task.target}_main")]

@@ -1,5 +1,6 @@
 """Copy robosuite's macros.py to macros_private.py unless it exists (what robosuite's
 scripts/setup_macros.py does, without its prompt and without importing robosuite)."""
+
 import importlib.util
 import shutil
 from pathlib import Path

@@ -6,6 +6,7 @@ One row per case: for each file, the trials whose start has a problem (`settle.t
 an object off the table or out of view, moving faster than the limit, an :init relation broken),
 and for each other file the largest displacement (cm) and tilt change (deg) against the reference
 over the trials both files hold."""
+
 from __future__ import annotations
 
 import json

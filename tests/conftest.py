@@ -1,4 +1,5 @@
 """Shared fixtures. Tests never touch the user's home: LIBERO's config goes to a temp dir."""
+
 from __future__ import annotations
 
 import os
@@ -32,9 +33,8 @@ BUILT_SCENE_CASE = "libero_spatial-00/task_relevant_distractors/same_color-v1"
 @pytest.fixture(scope="session")
 def scene_out(tmp_path_factory):
     """An out/ folder (VPRO_OUT) shared by the session, with BUILT_SCENE_CASE built in it."""
+    from vpro_assets.benchmark.catalog import find_case, load_catalog
     from vpro_assets.core import paths
-    from vpro_assets.benchmark.catalog import find_case
-    from vpro_assets.benchmark.catalog import load_catalog
     from vpro_assets.scene import build
 
     d = tmp_path_factory.mktemp("vpro-out")

@@ -8,6 +8,7 @@ In the toolkit's own environment, importing the package also points LIBERO at th
 the user's own `~/.libero/config.yaml` exists, so a user's own script that imports LIBERO afterwards is not stopped by LIBERO's stdin prompt.
 Nothing is written at import.
 """
+
 import os as _os
 from pathlib import Path as _Path
 

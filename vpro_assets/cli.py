@@ -1,6 +1,7 @@
 """`vpro`: the toolkit's command line. Each subcommand lives in the module of its concept and
 registers itself through `add_parser(subparsers)`; this file only wires them and turns
 VProError into a one-line message and exit code 2."""
+
 from __future__ import annotations
 
 import argparse

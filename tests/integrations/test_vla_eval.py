@@ -8,6 +8,7 @@ vla-eval's LIBERO preprocessing, the same actions give the same outcome and fina
 `-m slow`: a scene case, the oracle's full episode replayed, two shards, a server that drops the
 connection mid-episode.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -84,22 +85,33 @@ def model_server(log: Path, **args):
             proc.wait()
 
 
-def vla_eval_run(config: Path, url: str, out: Path, *extra: str, env: dict | None = None,
-                 background: bool = False):
+def vla_eval_run(config: Path, url: str, out: Path, *extra: str, env: dict | None = None, background: bool = False):
     cmd = [VLA_EVAL, "run", "--no-docker", "-c", str(config), "--server-url", url, "--output-dir", str(out), *extra]
     if background:
         return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     return subprocess.run(cmd, capture_output=True, text=True, timeout=1800, env=env)
 
 
-def write_config(path: Path, select: list[str], episodes: int = 1, max_steps: int | None = None,
-                 **more) -> Path:
+def write_config(path: Path, select: list[str], episodes: int = 1, max_steps: int | None = None, **more) -> Path:
     params: dict = {"select": select, **more}
     if max_steps is not None:
         params["max_steps"] = max_steps
-    path.write_text(yaml.safe_dump({"server": {"url": "ws://127.0.0.1:1", "timeout": 120},
-                                    "benchmarks": [{"benchmark": BENCHMARK, "subname": "test", "mode": "sync",
-                                                    "episodes_per_task": episodes, "params": params}]}))
+    path.write_text(
+        yaml.safe_dump(
+            {
+                "server": {"url": "ws://127.0.0.1:1", "timeout": 120},
+                "benchmarks": [
+                    {
+                        "benchmark": BENCHMARK,
+                        "subname": "test",
+                        "mode": "sync",
+                        "episodes_per_task": episodes,
+                        "params": params,
+                    }
+                ],
+            }
+        )
+    )
     return path
 
 
@@ -152,8 +164,14 @@ def assert_same_episode(received: Path, policy: Replay, vla_metrics: dict, in_pr
     n = len(policy.seen)
     assert n == in_process["steps"] == vla_metrics["steps"] and got["image_agentview"].shape[0] == n
     for key, cam in CAMS.items():
-        expected = np.stack([preprocess_libero_image(np.asarray(o.images[cam]) if o.images[cam] is not None
-                                                     else np.zeros_like(got[f"image_{key}"][0])) for o in policy.seen])
+        expected = np.stack(
+            [
+                preprocess_libero_image(
+                    np.asarray(o.images[cam]) if o.images[cam] is not None else np.zeros_like(got[f"image_{key}"][0])
+                )
+                for o in policy.seen
+            ]
+        )
         assert got[f"image_{key}"].dtype == expected.dtype == np.uint8
         diff = np.flatnonzero((got[f"image_{key}"] != expected).reshape(n, -1).any(axis=1))
         assert diff.size == 0, f"{key} view differs first at step {diff[:1]}"
@@ -270,19 +288,54 @@ def test_bad_benchmark_parameter_is_one_line_error(tmp_path, noop_server):
 
 
 def test_recorded_failures_become_error_and_unavailable_rows():
-    base = {"task_name": NORMAL, "episode_id": 3, "sid": "s",
-            "context": {"name": NORMAL, "case_id": NORMAL, "suite": "libero_spatial", "task": "libero_spatial-00",
-                        "category": "normal", "level": "normal", "episode_idx": 3}}
-    ok = to_row({**base, "status": "success", "metrics": {"success": True, "case_id": NORMAL, "trial": 3,
-                                                          "category": "normal", "steps": 7}}, "r", "p")
+    base = {
+        "task_name": NORMAL,
+        "episode_id": 3,
+        "sid": "s",
+        "context": {
+            "name": NORMAL,
+            "case_id": NORMAL,
+            "suite": "libero_spatial",
+            "task": "libero_spatial-00",
+            "category": "normal",
+            "level": "normal",
+            "episode_idx": 3,
+        },
+    }
+    ok = to_row(
+        {
+            **base,
+            "status": "success",
+            "metrics": {"success": True, "case_id": NORMAL, "trial": 3, "category": "normal", "steps": 7},
+        },
+        "r",
+        "p",
+    )
     assert (ok["status"], ok["success"], ok["trial"], ok["steps"]) == ("ok", True, 3, 7)
-    gone = to_row({**base, "status": "error", "metrics": {"success": False}, "failure_reason": "connection_closed",
-                   "failure_detail": "code=None reason=None"}, "r", "p")
+    gone = to_row(
+        {
+            **base,
+            "status": "error",
+            "metrics": {"success": False},
+            "failure_reason": "connection_closed",
+            "failure_detail": "code=None reason=None",
+        },
+        "r",
+        "p",
+    )
     assert (gone["status"], gone["success"], gone["case_id"], gone["trial"]) == ("error", None, NORMAL, 3)
     assert gone["error"] == "connection_closed: code=None reason=None"
-    unavailable = to_row({**base, "status": "error", "metrics": {"success": False}, "failure_reason": "env_start",
-                          "failure_detail": "Traceback...\nvpro_assets.rollout.case_env.CaseUnavailableError: x"},
-                         "r", "p")
+    unavailable = to_row(
+        {
+            **base,
+            "status": "error",
+            "metrics": {"success": False},
+            "failure_reason": "env_start",
+            "failure_detail": "Traceback...\nvpro_assets.rollout.case_env.CaseUnavailableError: x",
+        },
+        "r",
+        "p",
+    )
     assert unavailable["status"] == "unavailable"
 
 
@@ -332,15 +385,30 @@ def test_two_shards_cover_every_episode_once(tmp_path):
     config = write_config(tmp_path / "c.yaml", [NORMAL, OBSERVATION], episodes=2, max_steps=3)
     results = tmp_path / "results"
     with model_server(tmp_path / "server.log") as url:
-        shards = [vla_eval_run(config, url, results, "--shard-id", str(i), "--num-shards", "2",
-                               "--eval-id", "two-shards", background=True) for i in range(2)]
+        shards = [
+            vla_eval_run(
+                config,
+                url,
+                results,
+                "--shard-id",
+                str(i),
+                "--num-shards",
+                "2",
+                "--eval-id",
+                "two-shards",
+                background=True,
+            )
+            for i in range(2)
+        ]
         outs = [p.communicate(timeout=1800) for p in shards]
     for p, (_, err) in zip(shards, outs, strict=True):
         assert p.returncode == 0, err[-3000:]
     con = sqlite3.connect(results / "recording-two-shards.sqlite")
     try:
-        done = Counter((json.loads(c)["case_id"], json.loads(c)["episode_idx"])
-                       for (c,) in con.execute("SELECT context FROM episode_results"))
+        done = Counter(
+            (json.loads(c)["case_id"], json.loads(c)["episode_idx"])
+            for (c,) in con.execute("SELECT context FROM episode_results")
+        )
         by_shard = Counter(sid for (sid,) in con.execute("SELECT sid FROM episode_results"))
     finally:
         con.close()
@@ -348,7 +416,8 @@ def test_two_shards_cover_every_episode_once(tmp_path):
     assert sum(by_shard.values()) == 4 and len(by_shard) <= 2
     _, rows = read_vla_eval(results)
     assert sorted((r["case_id"], r["trial"], r["status"]) for r in rows) == sorted(
-        (c, t, "ok") for c in (NORMAL, OBSERVATION) for t in (0, 1))
+        (c, t, "ok") for c in (NORMAL, OBSERVATION) for t in (0, 1)
+    )
 
 
 @pytest.mark.slow

@@ -1,6 +1,7 @@
 """Run inside the fork venv (no libero-vpro installed): register a pack with the pack's own
 module, then build every pack scene through LIBERO's own API the way openpi's LIBERO example
 does, load every initial state with LIBERO's torch.load, and step. Prints a JSON report."""
+
 import importlib.util
 import json
 import os
@@ -42,7 +43,10 @@ again = vpro_libero_fork.register(pack)  # idempotent
 from libero.libero import benchmark, get_libero_path  # noqa: E402
 from libero.libero.envs import OffScreenRenderEnv  # noqa: E402
 
-report = {"suites": {}, "idempotent": {k: v.__name__ for k, v in again.items()} == {k: v.__name__ for k, v in classes.items()}}
+report = {
+    "suites": {},
+    "idempotent": {k: v.__name__ for k, v in again.items()} == {k: v.__name__ for k, v in classes.items()},
+}
 for name in classes:
     suite = benchmark.get_benchmark_dict()[name]()
     rows = []
@@ -60,7 +64,14 @@ for name in classes:
             obs, reward, done, info = env.step([0.0] * 6 + [-1.0])
             stepped += 1
         env.close()
-        rows.append({"task": task.name, "language": task.language, "init_states": int(len(states)),
-                     "stepped": stepped, "image": list(obs["agentview_image"].shape)})
+        rows.append(
+            {
+                "task": task.name,
+                "language": task.language,
+                "init_states": int(len(states)),
+                "stepped": stepped,
+                "image": list(obs["agentview_image"].shape),
+            }
+        )
     report["suites"][name] = rows
 print("REPORT " + json.dumps(report))

@@ -3,6 +3,7 @@ own benchmark API builds every pack scene, loads every initial state with torch.
 
 The fork environment is made by scripts/make-fork-venv.sh (LIBERO, robosuite, mujoco, CPU torch;
 about 2 minutes the first time, reused afterwards under out/fork-venv)."""
+
 import json
 import os
 import subprocess
@@ -20,26 +21,36 @@ pytestmark = pytest.mark.fork
 FORK_VENV = paths.REPO_ROOT / "out" / "fork-venv"
 CHECK = Path(__file__).with_name("fork_check.py")
 # One case of every scene-variation category plus observation cases.
-SCENE_CASES = ["libero_spatial-00/task_relevant_distractors/same_color-v1",
-               "libero_goal-03/task_precondition_variation/receptacle_openness-v1",
-               "libero_goal-03/visual_state_ambiguity/receptacle_openness-v1",
-               "libero_spatial-00/target_geometry_variation/taper-s1-v1"]
-CASES = SCENE_CASES + ["libero_goal-03/camera_staleness/wrist-delay2-v1",
-                       "libero_10-09/view_unavailability/wrist-constant-v1"]
+SCENE_CASES = [
+    "libero_spatial-00/task_relevant_distractors/same_color-v1",
+    "libero_goal-03/task_precondition_variation/receptacle_openness-v1",
+    "libero_goal-03/visual_state_ambiguity/receptacle_openness-v1",
+    "libero_spatial-00/target_geometry_variation/taper-s1-v1",
+]
+CASES = SCENE_CASES + [
+    "libero_goal-03/camera_staleness/wrist-delay2-v1",
+    "libero_10-09/view_unavailability/wrist-constant-v1",
+]
 
 
 @pytest.fixture(scope="module")
 def fork_python(tmp_path_factory):
-    subprocess.run(["bash", str(paths.REPO_ROOT / "scripts" / "make-fork-venv.sh"), str(FORK_VENV)], check=True,
-                   timeout=1800)
+    subprocess.run(
+        ["bash", str(paths.REPO_ROOT / "scripts" / "make-fork-venv.sh"), str(FORK_VENV)], check=True, timeout=1800
+    )
     python = FORK_VENV / "bin" / "python"
-    site = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                          capture_output=True, text=True, check=True).stdout.strip()
+    site = subprocess.run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
     config = tmp_path_factory.mktemp("fork-config")
     root = f"{site}/libero/libero"
     (config / "config.yaml").write_text(
         f"benchmark_root: {root}\nbddl_files: {root}/bddl_files\ninit_states: {root}/init_files\n"
-        f"datasets: {config}/datasets\nassets: {root}/assets\n")
+        f"datasets: {config}/datasets\nassets: {root}/assets\n"
+    )
     return python, config
 
 
@@ -48,11 +59,12 @@ def _run(fork_python, *args):
     env = {k: v for k, v in os.environ.items() if not k.startswith(("VPRO_", "PYTHONPATH"))}
     env.update(LIBERO_CONFIG_PATH=str(config), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     env["PYOPENGL_PLATFORM"] = env["MUJOCO_GL"]
-    proc = subprocess.run([str(python), str(CHECK), *map(str, args)], capture_output=True, text=True,
-                          timeout=1800, cwd="/", env=env)
+    proc = subprocess.run(
+        [str(python), str(CHECK), *map(str, args)], capture_output=True, text=True, timeout=1800, cwd="/", env=env
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     line = next(line for line in proc.stdout.splitlines() if line.startswith("REPORT "))
-    return json.loads(line[len("REPORT "):])
+    return json.loads(line[len("REPORT ") :])
 
 
 @pytest.fixture(scope="module")
@@ -74,11 +86,19 @@ def test_fork_runs_every_pack_scene(fork_python, pack):
     report = _run(fork_python, pack)
     assert report["idempotent"]
     tasks = {t["task"]: t for rows in report["suites"].values() for t in rows}
-    assert set(report["suites"]) == {"vpro_camera_staleness", "vpro_view_unavailability",
-                                     "vpro_task_relevant_distractors", "vpro_task_precondition_variation",
-                                     "vpro_visual_state_ambiguity", "vpro_target_geometry_variation"}
+    assert set(report["suites"]) == {
+        "vpro_camera_staleness",
+        "vpro_view_unavailability",
+        "vpro_task_relevant_distractors",
+        "vpro_task_precondition_variation",
+        "vpro_visual_state_ambiguity",
+        "vpro_target_geometry_variation",
+    }
     assert set(tasks) == {f"{c.split('/')[0]}__{c.rsplit('/', 1)[1]}" for c in CASES}
-    assert tasks["libero_10-09__wrist-constant-v1"]["language"] == "put the yellow and white mug in the microwave and close it"
+    assert (
+        tasks["libero_10-09__wrist-constant-v1"]["language"]
+        == "put the yellow and white mug in the microwave and close it"
+    )
     for name, row in tasks.items():
         scene = any(name == f"{c.split('/')[0]}__{c.rsplit('/', 1)[1]}" for c in SCENE_CASES)
         assert row["init_states"] == (10 if scene else 50), name  # scene cases carry their frozen states

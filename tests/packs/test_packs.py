@@ -1,23 +1,25 @@
 """Packs: deterministic bytes, verification that names each file, clear errors on damage."""
+
 import json
 import shutil
 import subprocess
 import sys
 import tarfile
-from pathlib import Path
 
 import pytest
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.benchmark.selection import select_cases
+from vpro_assets.core import paths
 from vpro_assets.packs import manifest as mf
 from vpro_assets.packs.archive import extract_archive
 from vpro_assets.packs.manifest import PackError
 from vpro_assets.packs.writer import verify_pack, write_pack
-from vpro_assets.benchmark.selection import select_cases
 
-OBSERVATION_CASES = ["libero_goal-03/camera_staleness/wrist-delay2-v1",
-                     "libero_object-01/target_object_masking/ratio50-after_grasp-v1"]
+OBSERVATION_CASES = [
+    "libero_goal-03/camera_staleness/wrist-delay2-v1",
+    "libero_object-01/target_object_masking/ratio50-after_grasp-v1",
+]
 
 
 @pytest.fixture(scope="module")
@@ -46,12 +48,19 @@ def test_pack_layout_and_manifest(catalog, tmp_path):
     assert sorted(manifest["cases"]) == sorted(OBSERVATION_CASES)
     assert set(manifest["suites"]) == {"vpro_camera_staleness", "vpro_target_object_masking"}
     task = manifest["suites"]["vpro_camera_staleness"][0]
-    assert task == {"name": "libero_goal-03__wrist-delay2-v1", "case": OBSERVATION_CASES[0],
-                    "language": "open the top drawer and put the bowl inside"}
-    for rel in ("bddl_files/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.bddl",
-                "init_files/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.pruned_init",
-                "cases/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.json",
-                "taxonomy.json", "vpro_libero_fork.py", "README.md"):
+    assert task == {
+        "name": "libero_goal-03__wrist-delay2-v1",
+        "case": OBSERVATION_CASES[0],
+        "language": "open the top drawer and put the bowl inside",
+    }
+    for rel in (
+        "bddl_files/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.bddl",
+        "init_files/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.pruned_init",
+        "cases/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.json",
+        "taxonomy.json",
+        "vpro_libero_fork.py",
+        "README.md",
+    ):
         assert rel in manifest["files"], rel
     assert manifest["files"] == mf.file_entries(root)
     assert manifest["catalog_sha256"] == mf.sha256_file(paths.catalog_path())
@@ -74,9 +83,15 @@ def test_verify_names_changed_missing_and_extra_files(catalog, tmp_path):
     (root / "assets" / "stray.xml").write_text("<mujoco/>")
     _, mismatch = verify_pack(root)
     rel = lambda p: p.relative_to(root).as_posix()  # noqa: E731
-    assert mismatch.changed == [rel(bddl)] and mismatch.missing == [rel(spec)] and mismatch.extra == ["assets/stray.xml"]
-    proc = subprocess.run([sys.executable, "-m", "vpro_assets.cli", "pack", "verify", str(root)],
-                          capture_output=True, text=True, timeout=120)
+    assert (
+        mismatch.changed == [rel(bddl)] and mismatch.missing == [rel(spec)] and mismatch.extra == ["assets/stray.xml"]
+    )
+    proc = subprocess.run(
+        [sys.executable, "-m", "vpro_assets.cli", "pack", "verify", str(root)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 1
     for line in (f"changed: {rel(bddl)}", f"missing: {rel(spec)}", "extra: assets/stray.xml"):
         assert line in proc.stderr
@@ -94,8 +109,12 @@ def test_truncated_archive_and_newer_schema_are_clear_errors(catalog, tmp_path):
     (root / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(PackError, match="newer than this toolkit reads"):
         verify_pack(root)
-    proc = subprocess.run([sys.executable, "-m", "vpro_assets.cli", "pack", "verify", str(truncated)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "vpro_assets.cli", "pack", "verify", str(truncated)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr and "truncated" in proc.stderr
 
 
@@ -113,14 +132,24 @@ def test_import_copies_into_a_fork_checkout(catalog, tmp_path):
     fork = tmp_path / "fork"
     (fork / "libero" / "libero" / "bddl_files").mkdir(parents=True)
     (fork / "libero" / "libero" / "init_files").mkdir()
-    proc = subprocess.run([sys.executable, "-m", "vpro_assets.cli", "import", str(root), "--into", str(fork)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "vpro_assets.cli", "import", str(root), "--into", str(fork)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     copied = fork / "vpro_packs" / "p"
     assert not verify_pack(copied)[1]
     assert (fork / "libero/libero/bddl_files/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.bddl").is_file()
-    assert (fork / "libero/libero/init_files/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.pruned_init").is_file()
+    assert (
+        fork / "libero/libero/init_files/vpro_camera_staleness/libero_goal-03__wrist-delay2-v1.pruned_init"
+    ).is_file()
     shutil.rmtree(fork / "libero")
-    proc = subprocess.run([sys.executable, "-m", "vpro_assets.cli", "import", str(root), "--into", str(fork)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "vpro_assets.cli", "import", str(root), "--into", str(fork)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2 and "not a LIBERO checkout" in proc.stderr

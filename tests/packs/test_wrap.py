@@ -1,4 +1,5 @@
 """`vpro_assets.wrap(env, case)` keeps LIBERO's env interface and applies the case."""
+
 import numpy as np
 import pytest
 

@@ -1,6 +1,7 @@
 """Masks drawn from the env's own captured scene (entities and what can cover them) against the
 reference: a full-scene segmentation render of the same scene, on real renders of three tasks,
 both cameras, scripted episodes that approach, grasp and carry the target."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -10,9 +11,7 @@ import numpy as np
 import pytest
 
 from vpro_assets.benchmark import taxonomy as tx
-from vpro_assets.libero.env import CAMERAS
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import make_env
+from vpro_assets.libero.env import CAMERAS, libero_init_states, make_env
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.perturb import PerturbedEnv
 from vpro_assets.perturb.base import MaskSource
@@ -43,8 +42,9 @@ class FullCapture:
         def render(width, height, camera_id=None, segmentation=False):
             hooked(width, height, camera_id, segmentation)
             if not segmentation:
-                self.frames[camera_id] = capture(self.ctx, model, sim.data._data, camera_id, width, height,
-                                                 np.arange(model.ngeom), 0)
+                self.frames[camera_id] = capture(
+                    self.ctx, model, sim.data._data, camera_id, width, height, np.arange(model.ngeom), 0
+                )
 
         self.ctx.render = render
         self.renderer = CaptureRenderer(model)
@@ -53,7 +53,9 @@ class FullCapture:
         """Full-scene segmentation of the frame the env drew (`only`: of these geoms alone)."""
         cap = self.frames[self.sim.model.camera_name2id(camera)]
         if only is not None:
-            cap = dataclasses.replace(cap, entries=[e for e in cap.entries if e["objtype"] == GEOM and e["objid"] in only])
+            cap = dataclasses.replace(
+                cap, entries=[e for e in cap.entries if e["objtype"] == GEOM and e["objid"] in only]
+            )
         return self.renderer.draw_ids(self.ctx, cap)
 
 
@@ -71,8 +73,14 @@ def test_captured_masks_equal_full_scene_segmentation(key):
         compared, occluded, apart = 0, 0, 0
         for step in range(STEPS):
             env.env.step(controller.action())
-            masks = MaskSource(sim, pipe.entities, {c: (RES, RES) for c in CAMERAS}, pipe.hook.take(),
-                               pipe.capture_renderer, pipe.mask_labels)
+            masks = MaskSource(
+                sim,
+                pipe.entities,
+                dict.fromkeys(CAMERAS, (RES, RES)),
+                pipe.hook.take(),
+                pipe.capture_renderer,
+                pipe.mask_labels,
+            )
             for cam in CAMERAS:
                 ref_ids = reference.ids(cam)
                 for label in LABELS:
@@ -80,7 +88,9 @@ def test_captured_masks_equal_full_scene_segmentation(key):
                     ref = np.isin(ref_ids, entity.geoms)
                     new = masks.mask(cam, label)
                     # exact at every pixel, not only above the IoU threshold
-                    assert np.array_equal(new, ref), f"{key} step {step} {cam} {label}: {int((new != ref).sum())} px differ"
+                    assert np.array_equal(new, ref), (
+                        f"{key} step {step} {cam} {label}: {int((new != ref).sum())} px differ"
+                    )
                     if ref.sum() >= MIN_PX:
                         assert iou(new, ref) >= 0.98
                         compared += 1
@@ -91,8 +101,11 @@ def test_captured_masks_equal_full_scene_segmentation(key):
                 for a, b in (("gripper", "target"), ("target", "receptacle")):
                     if not masks.may_meet(cam, a, b, RADIUS):
                         apart += 1
-                        region = meeting_region(np.isin(ref_ids, pipe.entities.entity(a).geoms),
-                                                np.isin(ref_ids, pipe.entities.entity(b).geoms), RADIUS)
+                        region = meeting_region(
+                            np.isin(ref_ids, pipe.entities.entity(a).geoms),
+                            np.isin(ref_ids, pipe.entities.entity(b).geoms),
+                            RADIUS,
+                        )
                         assert not region.any(), f"{key} step {step} {cam}: {a} and {b} meet"
             assert masks.reference_renders == 0  # every mask came from the captured scenes
         assert compared >= STEPS * 3  # several entities visible in both cameras
@@ -122,8 +135,15 @@ def test_masking_setting_same_schedule_seeds_and_physics_with_either_mask_path()
                 _, _, _, info = env.step(controller.action())
                 applied.append(sorted(info["vpro"]["applied"]))
                 states.append(env.sim.get_state().flatten())
-            runs.append((applied, np.array(states), dict(env.pipeline.perturbations[0].angles),
-                         env.pipeline.reference_mask_renders, env.pipeline.mask_renders))
+            runs.append(
+                (
+                    applied,
+                    np.array(states),
+                    dict(env.pipeline.perturbations[0].angles),
+                    env.pipeline.reference_mask_renders,
+                    env.pipeline.mask_renders,
+                )
+            )
             env.pipeline.detach()
     finally:
         env0.close()

@@ -1,15 +1,15 @@
 """Phase tracker on scripted privileged-state rollouts, one task per suite (no cameras rendered:
 the tracker reads the simulator only). libero_object-00 runs by default; the others are slow."""
+
 from __future__ import annotations
 
 import pytest
 
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import make_env
+from vpro_assets.libero.env import libero_init_states, make_env
+from vpro_assets.libero.tasks import get_task
 from vpro_assets.perturb import PerturbedEnv
 from vpro_assets.perturb.phases import ALL_PHASES
 from vpro_assets.rollout.policies.scripted import ScriptedPolicy
-from vpro_assets.libero.tasks import get_task
 
 MAX_STEPS = 260
 
@@ -37,7 +37,7 @@ def scripted_rollout(key: str):
 def check_timeline(timeline, stages, history):
     phases = [p for _, p in timeline["changes"]]
     assert phases == list(ALL_PHASES), f"phases seen: {phases}"
-    starts = dict((p, s) for s, p in timeline["changes"])
+    starts = {p: s for s, p in timeline["changes"]}
     g, o = timeline["grasp_onset"], timeline["placement_onset"]
     # grasp onset falls while the fingers close, within the grasp phase; transport starts after it
     assert starts["grasp"] <= g < starts["transport"]

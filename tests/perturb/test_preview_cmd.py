@@ -1,5 +1,6 @@
 """`vpro bench perturb` and `vpro preview` plumbing that needs no renderer: setting selection, the
 section-aware Markdown writer, and the shared `preview` command."""
+
 from __future__ import annotations
 
 import pytest
@@ -14,7 +15,8 @@ def test_selection_of_settings():
     picked = observation_settings(["camera_staleness"])
     assert len(picked) == 10 and all(s.category == "camera_staleness" for s in picked)
     assert [s.id for s in observation_settings(["vpro/view_unavailability/wrist-constant-v1"])] == [
-        "vpro/view_unavailability/wrist-constant-v1"]
+        "vpro/view_unavailability/wrist-constant-v1"
+    ]
     with pytest.raises(VProError):
         observation_settings(["task_relevant_distractors"])  # scene settings have no perturbation
 
@@ -22,8 +24,18 @@ def test_selection_of_settings():
 def test_markdown_section_is_replaced_and_others_kept(tmp_path):
     doc = tmp_path / "benchmarks.md"
     doc.write_text("# Benchmarks\n\nintro\n\n<!-- BEGIN bench:other -->\nother table\n<!-- END bench:other -->\n")
-    row = {"setting": "vpro/x", "category": "c", "task": "t", "steps": 3, "needs_extra_render": False,
-           "clean_step_ms": 1.0, "perturbed_step_ms": 1.0, "ratio": 1.0, "active_steps": 3, "meets_goal": True}
+    row = {
+        "setting": "vpro/x",
+        "category": "c",
+        "task": "t",
+        "steps": 3,
+        "needs_extra_render": False,
+        "clean_step_ms": 1.0,
+        "perturbed_step_ms": 1.0,
+        "ratio": 1.0,
+        "active_steps": 3,
+        "meets_goal": True,
+    }
     meta = {"date": "d", "machine": "m", "steps": 3, "resolution": 64}
     update_markdown_section(doc, "perturb", markdown_table([row], meta))
     update_markdown_section(doc, "perturb", markdown_table([dict(row, ratio=1.5, meets_goal=False)], meta))

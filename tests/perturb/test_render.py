@@ -2,6 +2,7 @@
 masks line up with the pixels, cross-view contradictions keep the truthful view byte-identical
 and change the manipulated one only around the contradicted entity, masking ratios hold on real
 frames, and no perturbation changes the physics."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -9,20 +10,17 @@ import dataclasses
 import numpy as np
 import pytest
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.benchmark.catalog import load_catalog
-from vpro_assets.libero.env import CAMERAS
-from vpro_assets.libero.env import NOOP_ACTION
-from vpro_assets.libero.env import libero_init_states
-from vpro_assets.libero.env import make_env
+from vpro_assets.core import paths
+from vpro_assets.libero.env import CAMERAS, NOOP_ACTION, libero_init_states, make_env
+from vpro_assets.libero.tasks import get_task
 from vpro_assets.perturb import PerturbedEnv, build_pipeline, wrap_case_env
 from vpro_assets.perturb.base import MaskSource
 from vpro_assets.perturb.contradiction import Contradiction
 from vpro_assets.perturb.entities import EntityIndex
 from vpro_assets.perturb.imageops import dilate
 from vpro_assets.perturb.rendering import render_geom_ids, render_rgb
-from vpro_assets.libero.tasks import get_task
 
 TASK, RES = "libero_goal-03", 128
 AROUND_PX = 10  # "around the entity": within this many pixels of its drawn silhouette (clean or edited)
@@ -47,15 +45,14 @@ def restart(env, state):
 
 def case_of(setting_id: str, task) -> dict:
     s = tx.setting(setting_id)
-    return {"id": f"{task.key}/{s.id.removeprefix('vpro/')}", "task": task.key, "setting": s.id,
-            "params": s.param_dict}
+    return {"id": f"{task.key}/{s.id.removeprefix('vpro/')}", "task": task.key, "setting": s.id, "params": s.param_dict}
 
 
 def test_semantic_masks_line_up_with_pixels(scene):
     env, task, state = scene
     restart(env, state)
     ent = EntityIndex(env.sim, task)
-    masks = MaskSource(env.sim, ent, {c: (RES, RES) for c in CAMERAS})
+    masks = MaskSource(env.sim, ent, dict.fromkeys(CAMERAS, (RES, RES)))
     hide = Contradiction("t", {"attribute": "existence", "edit": "hide_target", "camera": "agentview"}, task)
     hide.attach(env.sim, ent)
     for cam in CAMERAS:
@@ -103,7 +100,10 @@ def test_cross_view_contradiction(scene, clean_run, setting_id):
         # one render pass per camera and step: the edit is in the env's own render of this step
         renders = []
         original = env.sim._render_context_offscreen.render
-        env.sim._render_context_offscreen.render = lambda *a, **k: (renders.append(k.get("camera_id", a[2] if len(a) > 2 else None)), original(*a, **k))[1]
+        env.sim._render_context_offscreen.render = lambda *a, **k: (
+            renders.append(k.get("camera_id", a[2] if len(a) > 2 else None)),
+            original(*a, **k),
+        )[1]
         wrapped.step(ACTIONS[0])
         assert len(renders) == len(CAMERAS)
         assert np.array_equal(env.get_sim_state(), clean_run[1][1]), "the scene edit changed the simulator state"
@@ -136,7 +136,7 @@ def test_masking_ratio_on_real_frames(scene):
     raw = restart(env, state)
     pipe.reset(3, env.sim)
     obs = pipe.observe(raw, env.sim)
-    masks = MaskSource(env.sim, EntityIndex(env.sim, task), {c: (RES, RES) for c in CAMERAS})
+    masks = MaskSource(env.sim, EntityIndex(env.sim, task), dict.fromkeys(CAMERAS, (RES, RES)))
     for cam in CAMERAS:
         target = masks.mask(cam, "target")
         diff = np.any(obs[f"{cam}_image"] != raw[f"{cam}_image"], axis=-1)
@@ -144,16 +144,21 @@ def test_masking_ratio_on_real_frames(scene):
         assert abs(diff[target].mean() - 0.75) <= 0.03
 
 
-def rollout(env, state, pipe, n=len(ACTIONS)):
+def rollout(env, state, pipe, n=None):
     """Observations and simulator states of a short run from the initial state through `pipe`
     (a hard reset each time: robosuite's observable timers and gripper state restart with it)."""
+    n = len(ACTIONS) if n is None else n
     wrapped = PerturbedEnv(env, None, pipe.task, pipeline=pipe)
     observations = [wrapped.reset(trial=0, init_state=state)]
     states = [env.get_sim_state().copy()]
     try:
         for a in ACTIONS[:n]:
-            obs, *_ = wrapped.step(a, predicted_frames={c: env.sim.render(RES, RES, camera_name=c)[::-1].copy()
-                                                        for c in CAMERAS} if pipe.setting_id and "prediction" in pipe.setting_id else None)
+            obs, *_ = wrapped.step(
+                a,
+                predicted_frames={c: env.sim.render(RES, RES, camera_name=c)[::-1].copy() for c in CAMERAS}
+                if pipe.setting_id and "prediction" in pipe.setting_id
+                else None,
+            )
             observations.append(obs)
             states.append(env.get_sim_state().copy())
     finally:
@@ -174,10 +179,14 @@ def clean_states(clean_run):
 
 # One setting of every mechanism in the default run; all 74 behind the slow marker.
 # (the cross-view contradictions are checked for it in test_cross_view_contradiction).
-REPRESENTATIVE = ["vpro/target_receptacle_masking/ratio50-always-v1", "vpro/interaction_cue_masking/gripper-v1",
-                  "vpro/temporary_observation_corruption/noise-phase_approach-v1",
-                  "vpro/view_unavailability/wrist-single_view-v1", "vpro/camera_staleness/third_person-delay1-v1",
-                  "vpro/prediction_reality_divergence/recursive_self_prediction-v1"]
+REPRESENTATIVE = [
+    "vpro/target_receptacle_masking/ratio50-always-v1",
+    "vpro/interaction_cue_masking/gripper-v1",
+    "vpro/temporary_observation_corruption/noise-phase_approach-v1",
+    "vpro/view_unavailability/wrist-single_view-v1",
+    "vpro/camera_staleness/third_person-delay1-v1",
+    "vpro/prediction_reality_divergence/recursive_self_prediction-v1",
+]
 
 
 def applicable(setting_id, task):
@@ -237,6 +246,8 @@ def test_observer_consumes_a_chunk_of_predicted_frames(scene):
         observer.on_step(obs)
         images = observer.policy_images(obs, 0)
         seen.append(int(images["agentview"][0, 0, 0]))
-        assert np.array_equal(images["robot0_eye_in_hand"], raw["robot0_eye_in_hand_image"])  # no prediction: first frame
+        assert np.array_equal(
+            images["robot0_eye_in_hand"], raw["robot0_eye_in_hand_image"]
+        )  # no prediction: first frame
     assert seen == [10, 20, 20]  # one frame per step, then the last shown frame stays
     observer.pipeline.detach()

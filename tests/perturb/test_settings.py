@@ -1,21 +1,22 @@
 """Defining property of each of the 74 observation-level settings, on synthetic frames, masks and
 phase timelines (no simulator): every setting of the taxonomy is built from its catalog case and
 run through an 80-step synthetic episode; the check asserts what the setting's name promises."""
+
 from __future__ import annotations
 
 import cv2
 import numpy as np
 import pytest
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.benchmark.catalog import load_catalog
+from vpro_assets.core import paths
+from vpro_assets.core.seeding import rng
 from vpro_assets.libero.env import CAMERAS
+from vpro_assets.libero.tasks import get_task
 from vpro_assets.perturb.base import Episode, Step
 from vpro_assets.perturb.phases import PLACED, PhaseState
 from vpro_assets.perturb.pipeline import FAMILIES
-from vpro_assets.core.seeding import rng
-from vpro_assets.libero.tasks import get_task
 
 OBS_SETTINGS = [s for s in tx.SETTINGS if tx.category(s.category).level == tx.OBSERVATION]
 STEPS, H, W = 80, 64, 64
@@ -38,8 +39,17 @@ def first_case(catalog, setting):
 
 
 def phase_at(t: int) -> PhaseState:
-    phase = ("approach" if t < 20 else "grasp" if t < 30 else "transport" if t < 50
-             else "pre_placement" if t < PLACE_ONSET else PLACED)
+    phase = (
+        "approach"
+        if t < 20
+        else "grasp"
+        if t < 30
+        else "transport"
+        if t < 50
+        else "pre_placement"
+        if t < PLACE_ONSET
+        else PLACED
+    )
     return PhaseState(t, phase, GRASP_ONSET if t >= GRASP_ONSET else None, PLACE_ONSET if t >= PLACE_ONSET else None)
 
 
@@ -53,7 +63,7 @@ class FakeMasks:
     gripper meets the target during grasp and transport; the target meets the receptacle late."""
 
     def __init__(self, t: int):
-        self.shapes = {cam: (H, W) for cam in CAMERAS}
+        self.shapes = dict.fromkeys(CAMERAS, (H, W))
         self.t, self.renders = t, 0
         r_target = 3 if 10 <= t < 14 else 9  # 29 px vs 253 px
         cx = 16 + min(t, 60) * 0.5
@@ -100,8 +110,12 @@ def check_entity_masking(setting, case, catalog):
     _, out = run(setting, case)
     seen_active = seen_inactive = 0
     for t, (clean, frames, step) in enumerate(out):
-        active = {"always": True, "before_grasp": t < GRASP_ONSET, "after_grasp": t >= GRASP_ONSET,
-                  "around_placement": t >= 50}[p["schedule"]]
+        active = {
+            "always": True,
+            "before_grasp": t < GRASP_ONSET,
+            "after_grasp": t >= GRASP_ONSET,
+            "around_placement": t >= 50,
+        }[p["schedule"]]
         for cam in CAMERAS:
             entity = step.masks.mask(cam, p["entity"])
             diff = changed(clean[cam], frames[cam])
@@ -113,7 +127,9 @@ def check_entity_masking(setting, case, catalog):
             assert np.all(frames[cam][diff] == p["occluder_gray"]), "occluder is not flat grey"
             if entity.sum() >= 50:
                 frac = diff[entity].mean()
-                assert abs(frac - p["ratio"]) <= 0.03, f"step {t} {cam}: masked {frac:.3f} of the entity, ratio {p['ratio']}"
+                assert abs(frac - p["ratio"]) <= 0.03, (
+                    f"step {t} {cam}: masked {frac:.3f} of the entity, ratio {p['ratio']}"
+                )
                 seen_active += 1
     assert seen_active > 0
     assert seen_inactive > 0 or p["schedule"] == "always"
@@ -124,8 +140,10 @@ def expected_region(masks, cam, region, d):
     if region == "gripper":
         return masks.mask(cam, "gripper")
     a, b = {"gripper_object_contact": ("gripper", "target"), "placement_contact": ("target", "receptacle")}[region]
-    dist = [cv2.distanceTransform((~masks.mask(cam, x)).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-            for x in (a, b)]
+    dist = [
+        cv2.distanceTransform((~masks.mask(cam, x)).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        for x in (a, b)
+    ]
     return (dist[0] <= d + 1e-4) & (dist[1] <= d + 1e-4)
 
 
@@ -241,10 +259,14 @@ def check_prediction(setting, case, catalog):
 
 
 CHECKS = {
-    "target_object_masking": check_entity_masking, "target_receptacle_masking": check_entity_masking,
-    "interaction_cue_masking": check_cue_masking, "temporary_observation_corruption": check_corruption,
-    "view_unavailability": check_views, "camera_staleness": check_staleness,
-    "cross_view_contradiction": check_contradiction, "prediction_reality_divergence": check_prediction,
+    "target_object_masking": check_entity_masking,
+    "target_receptacle_masking": check_entity_masking,
+    "interaction_cue_masking": check_cue_masking,
+    "temporary_observation_corruption": check_corruption,
+    "view_unavailability": check_views,
+    "camera_staleness": check_staleness,
+    "cross_view_contradiction": check_contradiction,
+    "prediction_reality_divergence": check_prediction,
 }
 
 

@@ -1,5 +1,6 @@
 """End to end: a small selection (Normal plus one setting of every category) through `vpro eval`
 with a reference policy on the local process pool, then `vpro report`."""
+
 from __future__ import annotations
 
 import json
@@ -7,10 +8,10 @@ import json
 import pytest
 from conftest import BUILT_SCENE_CASE
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.cli import main
+from vpro_assets.core import paths
 from vpro_assets.rollout.store import ResultsStore
 
 TASK = "libero_spatial-00"
@@ -48,9 +49,34 @@ def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, c
     catalog = load_catalog(paths.catalog_path())
     ids = small_selection(catalog)
     db = tmp_path / "results.sqlite"
-    args = ["eval", "--policy", "noop", "--select", "normal", "--select", TASK, "--trials", "1", "--results", str(db),
-            "--run-id", "e2e", "--workers", "2", "--max-steps", "3", "--wait-steps", "1", "--resolution", "64",
-            "--retries", "0", "--no-progress", "--video", str(tmp_path / "videos")]
+    args = [
+        "eval",
+        "--policy",
+        "noop",
+        "--select",
+        "normal",
+        "--select",
+        TASK,
+        "--trials",
+        "1",
+        "--results",
+        str(db),
+        "--run-id",
+        "e2e",
+        "--workers",
+        "2",
+        "--max-steps",
+        "3",
+        "--wait-steps",
+        "1",
+        "--resolution",
+        "64",
+        "--retries",
+        "0",
+        "--no-progress",
+        "--video",
+        str(tmp_path / "videos"),
+    ]
     for cid in ids[1:]:
         args += ["--select", cid]
     assert main(args) == 0
@@ -79,13 +105,22 @@ def test_eval_small_selection_on_local_pool_then_report(tmp_path, monkeypatch, c
     scene_row = rows[BUILT_SCENE_CASE]
     assert scene_row["artifact_hashes"]["bddl"] == next(h for f, h in meta["files"].items() if f.endswith(".bddl"))
     assert scene_row["artifact_hashes"]["init_states"] == next(
-        h for f, h in meta["files"].items() if f.endswith(".pruned_init"))
+        h for f, h in meta["files"].items() if f.endswith(".pruned_init")
+    )
 
     out = tmp_path / "report"
     assert main(["report", str(db), "--out", str(out)]) == 0
     md = (out / "report.md").read_text()
-    for title in ("per category", "Per-view", "Cross-View Contradiction", "contact composition", "Precondition",
-                  "Geometry", "phase-triggered", "Episodes by category"):
+    for title in (
+        "per category",
+        "Per-view",
+        "Cross-View Contradiction",
+        "contact composition",
+        "Precondition",
+        "Geometry",
+        "phase-triggered",
+        "Episodes by category",
+    ):
         assert title.lower() in md.lower(), title
     assert "Camera Staleness ↑" in md and "Target-Object Masking ◇" in md
     assert "(n=1;" in md

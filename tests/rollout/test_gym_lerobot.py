@@ -1,6 +1,7 @@
 """`vpro/Case-v0` in LeRobot's layout: a LeRobot-style evaluation loop (lerobot_eval.rollout's calls,
 on a gymnasium vector env, with LeRobot's LIBERO preprocessing ported to numpy) runs a VPro case
 unchanged, and sees the same perturbed views and state as the toolkit's own layout."""
+
 from __future__ import annotations
 
 import gymnasium as gym
@@ -17,9 +18,14 @@ KW = {"case": CASE, "resolution": 32, "wait_steps": 1, "max_steps": 13}  # the c
 MOVE = np.array([0.6, 0.3, 0.0, 0.0, 0.0, 0.0, -1.0], np.float32)
 
 # LeRobot's LiberoEnv (obs_type "pixels_agent_pos"), src/lerobot/envs/libero.py: nested keys and shapes.
-LEROBOT_LAYOUT = {"pixels": {"image": (32, 32, 3), "image2": (32, 32, 3)},
-                  "robot_state": {"eef": {"pos": (3,), "quat": (4,), "mat": (3, 3)},
-                                  "gripper": {"qpos": (2,), "qvel": (2,)}, "joints": {"pos": (7,), "vel": (7,)}}}
+LEROBOT_LAYOUT = {
+    "pixels": {"image": (32, 32, 3), "image2": (32, 32, 3)},
+    "robot_state": {
+        "eef": {"pos": (3,), "quat": (4,), "mat": (3, 3)},
+        "gripper": {"qpos": (2,), "qvel": (2,)},
+        "joints": {"pos": (7,), "vel": (7,)},
+    },
+}
 
 
 def _shapes(space):
@@ -35,7 +41,9 @@ def lerobot_preprocess(observation: dict) -> dict:
         out[f"observation.images.{key}"] = np.flip(img.transpose(0, 3, 1, 2).astype(np.float32) / 255, axis=(2, 3))
     rs = observation["robot_state"]
     axis = np.stack([quat2axisangle(q) for q in rs["eef"]["quat"]])
-    out["observation.state"] = np.concatenate([rs["eef"]["pos"], axis, rs["gripper"]["qpos"]], axis=-1).astype(np.float32)
+    out["observation.state"] = np.concatenate([rs["eef"]["pos"], axis, rs["gripper"]["qpos"]], axis=-1).astype(
+        np.float32
+    )
     return out
 
 
@@ -85,7 +93,10 @@ def test_a_lerobot_style_loop_runs_a_case_unchanged():
         assert np.array_equal(raw["pixels"]["image"][0], vpro["agentview_image"])
         assert np.array_equal(raw["pixels"]["image2"][0], vpro["robot0_eye_in_hand_image"])
         # LeRobot's processing turns them upright and builds the same 8-float state.
-        assert np.array_equal(batch["observation.images.image"][0], vpro["agentview_image"][::-1, ::-1].transpose(2, 0, 1) / np.float32(255))
+        assert np.array_equal(
+            batch["observation.images.image"][0],
+            vpro["agentview_image"][::-1, ::-1].transpose(2, 0, 1) / np.float32(255),
+        )
         assert np.allclose(batch["observation.state"][0], vpro["state"], atol=1e-6)
         mat = raw["robot_state"]["eef"]["mat"][0]
         assert np.allclose(mat @ mat.T, np.eye(3), atol=1e-6)

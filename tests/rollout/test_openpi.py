@@ -1,5 +1,6 @@
 """The openpi adapter against a loopback server speaking openpi's protocol: what reaches the
 server (keys, orientation, shapes, state, prompt), and every fault ending as a recorded error."""
+
 from __future__ import annotations
 
 import socket
@@ -8,19 +9,18 @@ import numpy as np
 import pytest
 from openpi_client import image_tools
 
+from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
-from vpro_assets.benchmark.catalog import find_case
-from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode
-from vpro_assets.rollout.policies.openpi import OpenpiPolicy
-from vpro_assets.rollout.policies.openpi import build_request
-from vpro_assets.rollout.policies.openpi import quat2axisangle
+from vpro_assets.rollout.policies.base import (
+    EpisodeInfo,
+    Observation,
+    PolicyConnectionError,
+    PolicyOutputError,
+    PolicyTimeoutError,
+)
+from vpro_assets.rollout.policies.openpi import OpenpiPolicy, build_request, quat2axisangle
 from vpro_assets.rollout.policies.openpi_server import LoopbackPolicyServer
-from vpro_assets.rollout.policies.base import EpisodeInfo
-from vpro_assets.rollout.policies.base import Observation
-from vpro_assets.rollout.policies.base import PolicyConnectionError
-from vpro_assets.rollout.policies.base import PolicyOutputError
-from vpro_assets.rollout.policies.base import PolicyTimeoutError
 from vpro_assets.rollout.runner import run_eval
 from vpro_assets.rollout.store import ResultsStore
 
@@ -34,8 +34,14 @@ def normal_case():
 
 
 def _obs(images) -> Observation:
-    return Observation(images=images, eef_pos=np.array([0.1, 0.2, 0.3]), eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
-                       gripper_qpos=np.array([0.04, -0.04]), joint_pos=np.zeros(7), step=0)
+    return Observation(
+        images=images,
+        eef_pos=np.array([0.1, 0.2, 0.3]),
+        eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
+        gripper_qpos=np.array([0.04, -0.04]),
+        joint_pos=np.zeros(7),
+        step=0,
+    )
 
 
 def test_request_rotates_180_pads_to_224_and_sends_8d_state():
@@ -87,17 +93,21 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-@pytest.mark.parametrize("fault,error,message", [
-    ("refused", PolicyConnectionError, "cannot connect"),
-    ("slow", PolicyTimeoutError, "no reply within 0.3 s"),
-    ("nan", PolicyOutputError, "non-finite action value nan at chunk index 0, dimension 2"),
-    ("shape", PolicyOutputError, "expected actions of shape (H, 7) with H >= 1, got shape (10, 6)"),
-    ("error", PolicyOutputError, "error reply: Traceback"),
-])
+@pytest.mark.parametrize(
+    "fault,error,message",
+    [
+        ("refused", PolicyConnectionError, "cannot connect"),
+        ("slow", PolicyTimeoutError, "no reply within 0.3 s"),
+        ("nan", PolicyOutputError, "non-finite action value nan at chunk index 0, dimension 2"),
+        ("shape", PolicyOutputError, "expected actions of shape (H, 7) with H >= 1, got shape (10, 6)"),
+        ("error", PolicyOutputError, "error reply: Traceback"),
+    ],
+)
 def test_adapter_turns_each_fault_into_a_clear_infrastructure_error(fault, error, message):
     server = None if fault == "refused" else LoopbackPolicyServer(fault=fault, fault_count=1, delay=1.0).start()
-    policy = OpenpiPolicy("127.0.0.1", _free_port() if server is None else server.port, infer_timeout=0.3,
-                          connect_timeout=2.0)
+    policy = OpenpiPolicy(
+        "127.0.0.1", _free_port() if server is None else server.port, infer_timeout=0.3, connect_timeout=2.0
+    )
     obs = _obs({"agentview": np.zeros((64, 64, 3), np.uint8), "robot0_eye_in_hand": np.zeros((64, 64, 3), np.uint8)})
     try:
         with pytest.raises(error) as caught:
@@ -113,18 +123,29 @@ def test_adapter_turns_each_fault_into_a_clear_infrastructure_error(fault, error
             server.stop()
 
 
-@pytest.mark.parametrize("fault,kind,message", [
-    ("refused", "PolicyConnectionError", "cannot connect"),
-    ("nan", "PolicyOutputError", "non-finite action value"),
-])
+@pytest.mark.parametrize(
+    "fault,kind,message",
+    [
+        ("refused", "PolicyConnectionError", "cannot connect"),
+        ("nan", "PolicyOutputError", "non-finite action value"),
+    ],
+)
 def test_faults_are_recorded_errors_retried_and_the_run_goes_on(tmp_path, normal_case, fault, kind, message):
     db = tmp_path / "r.sqlite"
     server = None if fault == "refused" else LoopbackPolicyServer(fault=fault, fault_count=10**6).start()
     port = _free_port() if server is None else server.port
     try:
-        summary = run_eval([normal_case], results=db, policy_spec=f"openpi:127.0.0.1:{port}",
-                           policy_options={"infer_timeout": 5.0, "connect_timeout": 2.0}, settings=FAST, trials=2,
-                           backend="inline", retries=1, retry_delay=0)
+        summary = run_eval(
+            [normal_case],
+            results=db,
+            policy_spec=f"openpi:127.0.0.1:{port}",
+            policy_options={"infer_timeout": 5.0, "connect_timeout": 2.0},
+            settings=FAST,
+            trials=2,
+            backend="inline",
+            retries=1,
+            retry_delay=0,
+        )
     finally:
         if server is not None:
             server.stop()
@@ -140,8 +161,16 @@ def test_faults_are_recorded_errors_retried_and_the_run_goes_on(tmp_path, normal
 
 def test_transient_fault_is_retried_into_a_result(tmp_path, normal_case):
     with LoopbackPolicyServer(fault="nan", fault_count=1) as server:
-        summary = run_eval([normal_case], results=tmp_path / "r.sqlite", policy_spec=f"openpi:127.0.0.1:{server.port}",
-                           settings=FAST, trials=1, backend="inline", retries=2, retry_delay=0)
+        summary = run_eval(
+            [normal_case],
+            results=tmp_path / "r.sqlite",
+            policy_spec=f"openpi:127.0.0.1:{server.port}",
+            settings=FAST,
+            trials=1,
+            backend="inline",
+            retries=2,
+            retry_delay=0,
+        )
     (row,) = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
     assert row["status"] == "ok" and row["attempts"] == 2 and row["success"] in (0, 1) and row["error"] is None
 

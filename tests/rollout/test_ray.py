@@ -1,12 +1,12 @@
 """Ray backend (a local Ray instance) and the local process pool give the same rows for a
 deterministic policy: same success, steps, contact composition and final simulator state."""
+
 from __future__ import annotations
 
 import pytest
 
+from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
-from vpro_assets.benchmark.catalog import find_case
-from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.rollout.episode import EpisodeSettings
 from vpro_assets.rollout.runner import run_eval
 from vpro_assets.rollout.store import ResultsStore
@@ -22,8 +22,17 @@ def test_ray_and_local_pool_give_identical_rows(tmp_path):
     rows = {}
     for backend in ("local", "ray"):
         db = tmp_path / f"{backend}.sqlite"
-        summary = run_eval(cases, results=db, policy_spec="random", trials=2, run_id="r", backend=backend,
-                           workers=2, settings=settings, retries=0)
+        summary = run_eval(
+            cases,
+            results=db,
+            policy_spec="random",
+            trials=2,
+            run_id="r",
+            backend=backend,
+            workers=2,
+            settings=settings,
+            retries=0,
+        )
         assert summary.counts == {"ok": 4}, summary
         rows[backend] = sorted(tuple(r[k] for k in KEY) for r in ResultsStore(db).episodes("r"))
         workers = {r["worker"] for r in ResultsStore(db).episodes("r")}

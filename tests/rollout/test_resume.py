@@ -1,5 +1,6 @@
 """Never lose work: a `vpro eval` killed with SIGKILL mid-run resumes to the same rows as an
 uninterrupted run, without duplicates; the store never overwrites a result."""
+
 from __future__ import annotations
 
 import os
@@ -15,8 +16,25 @@ import pytest
 from vpro_assets.rollout.store import ResultsStore
 
 TRIALS = 3
-ARGS = ["--policy", "random", "--select", "normal", "--select", "libero_object-02", "--trials", str(TRIALS),
-        "--max-steps", "4", "--wait-steps", "1", "--resolution", "32", "--run-id", "r", "--no-progress"]
+ARGS = [
+    "--policy",
+    "random",
+    "--select",
+    "normal",
+    "--select",
+    "libero_object-02",
+    "--trials",
+    str(TRIALS),
+    "--max-steps",
+    "4",
+    "--wait-steps",
+    "1",
+    "--resolution",
+    "32",
+    "--run-id",
+    "r",
+    "--no-progress",
+]
 KEY = ("case_id", "trial", "seed", "policy_id", "status", "success", "steps", "contact", "final_state")
 
 
@@ -57,21 +75,28 @@ def test_kill_9_then_resume_gives_the_rows_of_an_uninterrupted_run(tmp_path):
     time.sleep(3)
     assert _count(killed) == after_kill  # the workers died with the runner: nothing more is written
 
-    resumed = subprocess.run(_vpro(*ARGS, "--results", str(killed), "--resume"), env=env, capture_output=True,
-                             text=True, timeout=600)
+    resumed = subprocess.run(
+        _vpro(*ARGS, "--results", str(killed), "--resume"), env=env, capture_output=True, text=True, timeout=600
+    )
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert f"{after_kill} episode(s) already recorded" in resumed.stderr
 
     # The uninterrupted run, in this process (the rows do not depend on the backend).
+    from vpro_assets.benchmark.catalog import find_case, load_catalog
     from vpro_assets.core import paths
-    from vpro_assets.benchmark.catalog import find_case
-    from vpro_assets.benchmark.catalog import load_catalog
     from vpro_assets.rollout.episode import EpisodeSettings
     from vpro_assets.rollout.runner import run_eval
 
     case = find_case(load_catalog(paths.catalog_path()), "libero_object-02/normal")
-    run_eval([case], results=reference, policy_spec="random", trials=TRIALS, run_id="r", backend="inline",
-             settings=EpisodeSettings(resolution=32, wait_steps=1, max_steps_override=4))
+    run_eval(
+        [case],
+        results=reference,
+        policy_spec="random",
+        trials=TRIALS,
+        run_id="r",
+        backend="inline",
+        settings=EpisodeSettings(resolution=32, wait_steps=1, max_steps_override=4),
+    )
 
     assert _count(killed) == TRIALS == _count(reference)
     assert _rows(killed) == _rows(reference)

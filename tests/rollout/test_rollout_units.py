@@ -1,4 +1,5 @@
 """Fast checks of the rollout layer's parts: policy specs, adapters, metrics, progress, gym env."""
+
 from __future__ import annotations
 
 from collections import Counter
@@ -6,23 +7,24 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from vpro_assets.core.errors import VProError
-from vpro_assets.report.metrics import Rate
-from vpro_assets.report.metrics import drop
-from vpro_assets.report.metrics import rate
-from vpro_assets.rollout.policies.base import EpisodeInfo
-from vpro_assets.rollout.policies.base import Observation
-from vpro_assets.rollout.policies.base import PolicyOutputError
-from vpro_assets.rollout.policies.base import as_output
 from vpro_assets.commands.eval_cmd import episode_outcome, outcome_summary
+from vpro_assets.core.errors import VProError
+from vpro_assets.report.metrics import Rate, drop, rate
+from vpro_assets.rollout.policies.base import EpisodeInfo, Observation, PolicyOutputError, as_output
 from vpro_assets.rollout.spec import make_policy, parse_openpi
 
 EP = EpisodeInfo("pick it", "libero_goal-03/normal", 1, 7, "libero_goal", "libero_goal-03")
 
 
 def _obs():
-    return Observation(images={"agentview": None, "robot0_eye_in_hand": None}, eef_pos=np.zeros(3),
-                       eef_quat=np.array([0, 0, 0, 1.0]), gripper_qpos=np.zeros(2), joint_pos=np.zeros(7), step=0)
+    return Observation(
+        images={"agentview": None, "robot0_eye_in_hand": None},
+        eef_pos=np.zeros(3),
+        eef_quat=np.array([0, 0, 0, 1.0]),
+        gripper_qpos=np.zeros(2),
+        joint_pos=np.zeros(7),
+        step=0,
+    )
 
 
 def shift_left(obs, episode):  # an in-process policy for the py: spec
@@ -76,15 +78,20 @@ def test_wilson_interval_and_drop():
     lo, hi = r.ci
     assert 49.0 < lo < 50.0 and 94.0 < hi < 95.0  # Wilson 95% for 8/10: [49.0, 94.3]
     assert Rate(0, 0).sr is None and Rate(0, 0).ci is None
-    rows = ([{"category": "normal", "task": "t", "status": "ok", "success": 1}] * 4
-            + [{"category": "x", "task": "t", "status": "ok", "success": s} for s in (1, 0, 0, 0)])
+    rows = [{"category": "normal", "task": "t", "status": "ok", "success": 1}] * 4 + [
+        {"category": "x", "task": "t", "status": "ok", "success": s} for s in (1, 0, 0, 0)
+    ]
     assert drop([r for r in rows if r["category"] == "x"], rows) == 75.0
 
 
 def test_progress_postfix_counts_success_errors_and_unavailable():
     tally = Counter()
-    for row in ({"status": "ok", "success": True}, {"status": "ok", "success": False}, {"status": "error"},
-                {"status": "unavailable"}):
+    for row in (
+        {"status": "ok", "success": True},
+        {"status": "ok", "success": False},
+        {"status": "error"},
+        {"status": "unavailable"},
+    ):
         tally.update(episode_outcome(row))
     assert outcome_summary(tally) == "success 50.0% of 2, 1 error(s), 1 unavailable"
     assert outcome_summary(Counter()) == "success -"
@@ -107,8 +114,8 @@ def test_gym_env_runs_a_case(monkeypatch):
 
 
 def test_unbuilt_scene_case_is_unavailable_not_a_crash(tmp_path, monkeypatch):
-    from vpro_assets.core import paths
     from vpro_assets.benchmark.catalog import load_catalog
+    from vpro_assets.core import paths
     from vpro_assets.rollout.case_env import CaseUnavailableError, check_available
 
     monkeypatch.setenv("VPRO_OUT", str(tmp_path))
@@ -140,15 +147,16 @@ class ConstantPredictor:
 
 
 def test_prediction_reality_divergence_feeds_predicted_frames_back():
+    from vpro_assets.benchmark.catalog import find_case, load_catalog
     from vpro_assets.core import paths
-    from vpro_assets.benchmark.catalog import find_case
-    from vpro_assets.benchmark.catalog import load_catalog
     from vpro_assets.rollout.case_env import CaseUnavailableError
     from vpro_assets.rollout.episode import EpisodeSettings, run_episode
     from vpro_assets.rollout.policies.reference import NoopPolicy
 
-    case = find_case(load_catalog(paths.catalog_path()),
-                     "libero_spatial-00/prediction_reality_divergence/recursive_self_prediction-v1")
+    case = find_case(
+        load_catalog(paths.catalog_path()),
+        "libero_spatial-00/prediction_reality_divergence/recursive_self_prediction-v1",
+    )
     settings = EpisodeSettings(resolution=32, wait_steps=1, max_steps_override=3)
     with pytest.raises(CaseUnavailableError, match="does not predict frames"):
         run_episode(case, 0, NoopPolicy(), settings)
@@ -182,17 +190,23 @@ class CrashOnFirstTrial:
 
 @pytest.mark.slow  # two worker start-ups: about a minute or two on 2 shared cores
 def test_a_dying_worker_is_an_error_row_and_is_replaced(tmp_path):
+    from vpro_assets.benchmark.catalog import find_case, load_catalog
     from vpro_assets.core import paths
-    from vpro_assets.benchmark.catalog import find_case
-    from vpro_assets.benchmark.catalog import load_catalog
     from vpro_assets.rollout.episode import EpisodeSettings
     from vpro_assets.rollout.runner import run_eval
     from vpro_assets.rollout.store import ResultsStore
 
     case = find_case(load_catalog(paths.catalog_path()), "libero_goal-03/normal")
-    summary = run_eval([case], results=tmp_path / "r.sqlite", policy_spec=f"py:{__name__}:CrashOnFirstTrial",
-                       trials=2, backend="local", workers=1, retries=0,
-                       settings=EpisodeSettings(resolution=32, wait_steps=1, max_steps_override=2))
+    summary = run_eval(
+        [case],
+        results=tmp_path / "r.sqlite",
+        policy_spec=f"py:{__name__}:CrashOnFirstTrial",
+        trials=2,
+        backend="local",
+        workers=1,
+        retries=0,
+        settings=EpisodeSettings(resolution=32, wait_steps=1, max_steps_override=2),
+    )
     first, second = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
     assert first["status"] == "error" and first["error_kind"] == "WorkerDied" and "exit code 3" in first["error"]
     assert second["status"] == "ok" and second["steps"] == 2

@@ -1,9 +1,9 @@
 """Frames are a function of (case, trial): LIBERO's fixture placement is seeded per trial."""
+
 import numpy as np
 
+from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
-from vpro_assets.benchmark.catalog import find_case
-from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.rollout.case_env import env_for_case, release_cached_envs
 
 

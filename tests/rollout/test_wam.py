@@ -1,6 +1,7 @@
 """World-action models over the wire: openpi's protocol with the opt-in extension of
 `vpro_assets.rollout.policies.wam` (episode reset, predicted frames), against a loopback
 stateful, frame-predicting server; a plain openpi server sees nothing new."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -33,8 +34,14 @@ def catalog():
 def _obs(size=RES) -> Observation:
     rng = np.random.default_rng(0)
     images = {cam: rng.integers(0, 256, (size, size, 3), dtype=np.uint8) for cam in CAMS}
-    return Observation(images=images, eef_pos=np.zeros(3), eef_quat=np.array([0, 0, 0, 1.0]),
-                       gripper_qpos=np.zeros(2), joint_pos=np.zeros(7), step=0)
+    return Observation(
+        images=images,
+        eef_pos=np.zeros(3),
+        eef_quat=np.array([0, 0, 0, 1.0]),
+        gripper_qpos=np.zeros(2),
+        joint_pos=np.zeros(7),
+        step=0,
+    )
 
 
 def _decode(frames, orientation="raw", shapes=None):
@@ -44,8 +51,11 @@ def _decode(frames, orientation="raw", shapes=None):
 
 def test_frames_come_back_in_raw_orientation_whatever_orientation_they_were_sent_in():
     raw = _obs().images
-    sent = {"raw": raw, "rot180": {c: f[::-1, ::-1] for c, f in raw.items()},
-            "flipud": {c: f[::-1] for c, f in raw.items()}}
+    sent = {
+        "raw": raw,
+        "rot180": {c: f[::-1, ::-1] for c, f in raw.items()},
+        "flipud": {c: f[::-1] for c, f in raw.items()},
+    }
     for orientation, frames in sent.items():
         out = _decode(frames, orientation)
         assert all(np.array_equal(out[c], raw[c]) and out[c].flags.c_contiguous for c in CAMS), orientation
@@ -58,14 +68,16 @@ def test_frames_come_back_in_raw_orientation_whatever_orientation_they_were_sent
 def test_frames_in_the_request_size_are_mapped_back_to_the_camera_size():
     # The loopback model's frame, as the server sends it, in each orientation: the same raw frame.
     upright = EchoWorldModel.frame(3, 224)
-    decoded = [_decode(dict.fromkeys(CAMS, f), o)["agentview"]
-               for o, f in (("rot180", upright), ("raw", upright[::-1, ::-1]), ("flipud", upright[:, ::-1]))]
+    decoded = [
+        _decode(dict.fromkeys(CAMS, f), o)["agentview"]
+        for o, f in (("rot180", upright), ("raw", upright[::-1, ::-1]), ("flipud", upright[:, ::-1]))
+    ]
     assert all(np.array_equal(d, decoded[0]) for d in decoded)
     frame = decoded[0]
     assert frame.shape == (RES, RES, 3) and frame.dtype == np.uint8
     mark = EchoWorldModel.MARK * RES // 224
     # Upright top-left corner = raw bottom-right corner; the rest keeps the predicted value 30.
-    assert frame[-mark + 1:, -mark + 1:].min() == 255
+    assert frame[-mark + 1 :, -mark + 1 :].min() == 255
     assert np.all(frame[: RES - mark - 2] == 30) and np.all(frame[:, : RES - mark - 2] == 30)
     # Padding added by resize_with_pad for a non-square camera is cropped before resizing back.
     wide = np.zeros((32, 64, 3), np.uint8)
@@ -76,20 +88,40 @@ def test_frames_in_the_request_size_are_mapped_back_to_the_camera_size():
     assert out["agentview"].shape == (32, 64, 3) and np.all(out["agentview"][:, :, 0] == 200)
 
 
-@pytest.mark.parametrize("reply,message", [
-    ({"actions": np.zeros((5, 7))}, "reply has no 'predicted_frames' although the server declares predicts_frames"),
-    ({"predicted_frames": np.zeros((RES, RES, 3), np.uint8)}, "must map camera names to uint8 arrays, got a ndarray"),
-    ({"predicted_frames": {"agentview": np.zeros((RES, RES, 3), np.uint8)}}, "no predicted frame for camera robot0_eye_in_hand"),
-    ({"predicted_frames": {c: np.zeros((RES, RES, 3), np.uint8) for c in CAMS + ("frontview",)}},
-     "predicted frame for unknown camera 'frontview'"),
-    ({"predicted_frames": {c: np.zeros((RES, RES, 3), np.float32) for c in CAMS}},
-     "predicted frame for agentview has dtype float32; expected uint8"),
-    ({"predicted_frames": {c: np.zeros((RES, RES - 1, 3), np.uint8) for c in CAMS}},
-     "predicted frame for agentview has shape (64, 63, 3); expected (h, w, 3) or (K, h, w, 3)"),
-    ({"predicted_frames": {c: np.zeros((0, RES, RES, 3), np.uint8) for c in CAMS}}, "has shape (0, 64, 64, 3)"),
-    ({"predicted_frames": {c: np.zeros((RES, RES, 3), np.uint8) for c in CAMS}, "predicted_frames_orientation": "up"},
-     "predicted_frames_orientation 'up' is not one of raw, rot180, flipud"),
-])
+@pytest.mark.parametrize(
+    "reply,message",
+    [
+        ({"actions": np.zeros((5, 7))}, "reply has no 'predicted_frames' although the server declares predicts_frames"),
+        (
+            {"predicted_frames": np.zeros((RES, RES, 3), np.uint8)},
+            "must map camera names to uint8 arrays, got a ndarray",
+        ),
+        (
+            {"predicted_frames": {"agentview": np.zeros((RES, RES, 3), np.uint8)}},
+            "no predicted frame for camera robot0_eye_in_hand",
+        ),
+        (
+            {"predicted_frames": {c: np.zeros((RES, RES, 3), np.uint8) for c in CAMS + ("frontview",)}},
+            "predicted frame for unknown camera 'frontview'",
+        ),
+        (
+            {"predicted_frames": {c: np.zeros((RES, RES, 3), np.float32) for c in CAMS}},
+            "predicted frame for agentview has dtype float32; expected uint8",
+        ),
+        (
+            {"predicted_frames": {c: np.zeros((RES, RES - 1, 3), np.uint8) for c in CAMS}},
+            "predicted frame for agentview has shape (64, 63, 3); expected (h, w, 3) or (K, h, w, 3)",
+        ),
+        ({"predicted_frames": {c: np.zeros((0, RES, RES, 3), np.uint8) for c in CAMS}}, "has shape (0, 64, 64, 3)"),
+        (
+            {
+                "predicted_frames": {c: np.zeros((RES, RES, 3), np.uint8) for c in CAMS},
+                "predicted_frames_orientation": "up",
+            },
+            "predicted_frames_orientation 'up' is not one of raw, rot180, flipud",
+        ),
+    ],
+)
 def test_each_bad_reply_is_an_error_naming_the_problem(reply, message):
     with pytest.raises(PolicyOutputError) as caught:
         decode_predicted_frames(reply, dict.fromkeys(CAMS, (RES, RES, 3)), 224, "policy server ws://h:1")
@@ -165,17 +197,28 @@ def test_prediction_reality_divergence_runs_against_a_stateful_world_model_serve
     assert model.episodes[1]["episode"]["trial"] == 1 and len(model.history) == 3
 
 
-@pytest.mark.parametrize("fault,message", [
-    ("missing_frames", "reply has no 'predicted_frames' although the server declares predicts_frames"),
-    ("frame_shape", "predicted frame for agentview has shape (223, 224, 3)"),
-    ("frame_dtype", "predicted frame for agentview has dtype float32; expected uint8"),
-])
+@pytest.mark.parametrize(
+    "fault,message",
+    [
+        ("missing_frames", "reply has no 'predicted_frames' although the server declares predicts_frames"),
+        ("frame_shape", "predicted frame for agentview has shape (223, 224, 3)"),
+        ("frame_dtype", "predicted frame for agentview has dtype float32; expected uint8"),
+    ],
+)
 def test_bad_replies_are_recorded_errors_naming_the_problem(tmp_path, catalog, fault, message):
     case = find_case(catalog, PRD)
     model = EchoWorldModel(fault=fault, fault_count=10**6)
     with LoopbackPolicyServer(model, metadata=model.metadata) as server:
-        summary = run_eval([case], results=tmp_path / "r.sqlite", policy_spec=f"openpi:127.0.0.1:{server.port}",
-                           settings=FAST, trials=1, backend="inline", retries=0, retry_delay=0)
+        summary = run_eval(
+            [case],
+            results=tmp_path / "r.sqlite",
+            policy_spec=f"openpi:127.0.0.1:{server.port}",
+            settings=FAST,
+            trials=1,
+            backend="inline",
+            retries=0,
+            retry_delay=0,
+        )
     (row,) = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
     assert row["status"] == "error" and row["success"] is None and row["error_kind"] == "PolicyOutputError"
     assert message in row["error"] and "after 1 attempt(s)" in row["error"]
@@ -185,8 +228,16 @@ def test_a_transient_bad_reply_is_retried_into_a_result(tmp_path, catalog):
     case = find_case(catalog, PRD)
     model = EchoWorldModel(fault="frame_dtype", fault_count=1)
     with LoopbackPolicyServer(model, metadata=model.metadata) as server:
-        summary = run_eval([case], results=tmp_path / "r.sqlite", policy_spec=f"openpi:127.0.0.1:{server.port}",
-                           settings=FAST, trials=1, backend="inline", retries=1, retry_delay=0)
+        summary = run_eval(
+            [case],
+            results=tmp_path / "r.sqlite",
+            policy_spec=f"openpi:127.0.0.1:{server.port}",
+            settings=FAST,
+            trials=1,
+            backend="inline",
+            retries=1,
+            retry_delay=0,
+        )
     (row,) = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
     assert row["status"] == "ok" and row["attempts"] == 2 and row["steps"] == 11
     assert len(model.episodes) == 2  # the retry started its episode with a fresh reset
@@ -195,8 +246,15 @@ def test_a_transient_bad_reply_is_retried_into_a_result(tmp_path, catalog):
 def test_prediction_case_with_a_plain_openpi_server_is_unavailable(tmp_path, catalog):
     case = find_case(catalog, PRD)
     with LoopbackPolicyServer() as server:
-        summary = run_eval([case], results=tmp_path / "r.sqlite", policy_spec=f"openpi:127.0.0.1:{server.port}",
-                           settings=FAST, trials=1, backend="inline", retries=0)
+        summary = run_eval(
+            [case],
+            results=tmp_path / "r.sqlite",
+            policy_spec=f"openpi:127.0.0.1:{server.port}",
+            settings=FAST,
+            trials=1,
+            backend="inline",
+            retries=0,
+        )
     (row,) = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
     assert row["status"] == "unavailable" and "does not predict frames" in row["error"]
     assert server.requests == []  # metadata read, nothing sent

@@ -15,6 +15,7 @@ Goals (issue 15): mask settings <= 1.05, every other setting <= 1.02. The JSON f
 object per setting; `docs/benchmarks.md` gets a Markdown table in its own section, leaving any
 other section of the file as it was.
 """
+
 from __future__ import annotations
 
 import json
@@ -46,32 +47,55 @@ DEFAULT_DOC = paths.REPO_ROOT / "docs" / "benchmarks.md"
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("bench", help="measure the cost of the observation perturbations",
-                       description="Benchmarks. `vpro bench perturb` measures, for each observation-level setting, "
-                       "the step time of the perturbed env against the clean env in one interleaved run and "
-                       "writes the ratios to a JSON file and a table to docs/benchmarks.md.")
+    p = sub.add_parser(
+        "bench",
+        help="measure the cost of the observation perturbations",
+        description="Benchmarks. `vpro bench perturb` measures, for each observation-level setting, "
+        "the step time of the perturbed env against the clean env in one interleaved run and "
+        "writes the ratios to a JSON file and a table to docs/benchmarks.md.",
+    )
     bsub = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
-    q = bsub.add_parser("perturb", help="step-time ratio of each observation setting against the clean env",
-                        description="For each observation-level setting, run scripted episodes on one env with "
-                        "clean and perturbed blocks interleaved; report the wall-clock step-time ratio, the "
-                        "pipeline's own added work, whether extra renders (masks, scene edits) are needed, and "
-                        f"the goal (<= {GOAL_MASK} for mask settings, <= {GOAL_OTHER} for the others). Writes a JSON list and the "
-                        "'perturb' section of docs/benchmarks.md.")
+    q = bsub.add_parser(
+        "perturb",
+        help="step-time ratio of each observation setting against the clean env",
+        description="For each observation-level setting, run scripted episodes on one env with "
+        "clean and perturbed blocks interleaved; report the wall-clock step-time ratio, the "
+        "pipeline's own added work, whether extra renders (masks, scene edits) are needed, and "
+        f"the goal (<= {GOAL_MASK} for mask settings, <= {GOAL_OTHER} for the others). Writes a JSON list and the "
+        "'perturb' section of docs/benchmarks.md.",
+    )
     q.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="JSON file to write")
-    q.add_argument("--select", action="append", metavar="FILTER",
-                   help="narrow to settings by setting id, category, dimension or case (repeatable); default: all 74")
+    q.add_argument(
+        "--select",
+        action="append",
+        metavar="FILTER",
+        help="narrow to settings by setting id, category, dimension or case (repeatable); default: all 74",
+    )
     q.add_argument("--steps", type=int, default=8, help="env steps measured per block (default 8)")
-    q.add_argument("--rounds", type=int, default=3,
-                   help="repetitions of the whole interleaved sequence; the spread of a ratio is its range "
-                   "over the rounds (default 3)")
-    q.add_argument("--mask-path", choices=("capture", "reference", "both"), default="capture",
-                   help="how mask settings get their masks: from the scene the env drew (capture, the default), "
-                   "from full-scene segmentation renders (reference, the path before issue 15), or both side by side")
-    q.add_argument("--task", default="libero_spatial-00",
-                   help="task to run on where the setting applies to it (default libero_spatial-00, where all "
-                   "74 apply); otherwise the setting's first catalog task")
+    q.add_argument(
+        "--rounds",
+        type=int,
+        default=3,
+        help="repetitions of the whole interleaved sequence; the spread of a ratio is its range "
+        "over the rounds (default 3)",
+    )
+    q.add_argument(
+        "--mask-path",
+        choices=("capture", "reference", "both"),
+        default="capture",
+        help="how mask settings get their masks: from the scene the env drew (capture, the default), "
+        "from full-scene segmentation renders (reference, the path before issue 15), or both side by side",
+    )
+    q.add_argument(
+        "--task",
+        default="libero_spatial-00",
+        help="task to run on where the setting applies to it (default libero_spatial-00, where all "
+        "74 apply); otherwise the setting's first catalog task",
+    )
     q.add_argument("--resolution", type=int, default=256, help="camera resolution (default 256, as evaluations use)")
-    q.add_argument("--doc", type=Path, default=DEFAULT_DOC, help="Markdown file for the table (default docs/benchmarks.md)")
+    q.add_argument(
+        "--doc", type=Path, default=DEFAULT_DOC, help="Markdown file for the table (default docs/benchmarks.md)"
+    )
     q.set_defaults(run=run_bench_perturb)
 
 
@@ -102,7 +126,6 @@ def _block(env, task, state, pipeline, steps: int) -> dict:
     """One episode of `steps` scripted steps through `pipeline`: step times, the pipeline's own
     work per step (`observe`, scene edits and scene captures inside the env's renders), steps on
     which it changed something, and the mask passes it rendered."""
-    from vpro_assets.rollout.policies.scripted import PickPlaceController
 
     env.sim.reset()  # a soft restart: timing only, exact physics does not matter here
     pipeline.reset(0, env.sim)
@@ -125,13 +148,24 @@ def _block(env, task, state, pipeline, steps: int) -> dict:
             active += bool(pipeline.last_notes)
     finally:
         pipeline.detach()
-    return {"times": times, "own": own, "active": active, "mask_renders": pipeline.mask_renders - renders0,
-            "reference_mask_renders": pipeline.reference_mask_renders - reference0}
+    return {
+        "times": times,
+        "own": own,
+        "active": active,
+        "mask_renders": pipeline.mask_renders - renders0,
+        "reference_mask_renders": pipeline.reference_mask_renders - reference0,
+    }
 
 
-def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolution: int, progress=None,
-          rounds: int = 3, mask_path: str = "capture") -> list[dict]:
-    from vpro_assets.perturb import build_pipeline
+def bench(
+    settings: list[tx.Setting],
+    preferred_task: str,
+    steps: int,
+    resolution: int,
+    progress=None,
+    rounds: int = 3,
+    mask_path: str = "capture",
+) -> list[dict]:
 
     catalog = load_catalog(paths.catalog_path())
     by_task: dict[str, list[tx.Setting]] = {}
@@ -173,7 +207,9 @@ def bench(settings: list[tx.Setting], preferred_task: str, steps: int, resolutio
     return rows
 
 
-def _row(s: tx.Setting | None, pipe, key: str, steps: int, resolution: int, runs: list[tuple[dict, dict, dict]]) -> dict:
+def _row(
+    s: tx.Setting | None, pipe, key: str, steps: int, resolution: int, runs: list[tuple[dict, dict, dict]]
+) -> dict:
     med = statistics.median
     clean = [t for before, _, after in runs for t in before["times"] + after["times"]]
     clean_own = [t for before, _, after in runs for t in before["own"] + after["own"]]
@@ -187,59 +223,95 @@ def _row(s: tx.Setting | None, pipe, key: str, steps: int, resolution: int, runs
     goal = GOAL_MASK if masks else GOAL_OTHER
     n = len(runs) * steps
     reference = bool(pipe.mask_labels) and not pipe.capture_masks
-    return {"setting": s.id if s else CONTROL, "category": s.category if s else "control", "task": key,
-            "mask_path": ("reference" if reference else "capture") if pipe.mask_labels else None,
-            "steps": steps, "rounds": len(runs), "resolution": resolution,
-            "ratio": round(ratio, 4), "ratio_min": round(min(per_round), 4), "ratio_max": round(max(per_round), 4),
-            "ratio_rounds": [round(r, 4) for r in per_round],
-            "overhead_ratio": round(overhead, 4), "added_ms": round(added * 1000, 2),
-            "clean_step_ms": round(med(clean) * 1000, 2), "perturbed_step_ms": round(med(pert) * 1000, 2),
-            "needs_extra_render": pipe.needs_extra_render, "masks": masks,
-            "mask_renders_per_step": round(sum(p["mask_renders"] for _, p, _ in runs) / n, 3),
-            "reference_mask_renders": sum(p["reference_mask_renders"] for _, p, _ in runs),
-            "active_steps": sum(p["active"] for _, p, _ in runs), "measured_steps": n, "goal": goal,
-            "meets_goal": ratio <= goal, "overhead_meets_goal": overhead <= goal}
+    return {
+        "setting": s.id if s else CONTROL,
+        "category": s.category if s else "control",
+        "task": key,
+        "mask_path": ("reference" if reference else "capture") if pipe.mask_labels else None,
+        "steps": steps,
+        "rounds": len(runs),
+        "resolution": resolution,
+        "ratio": round(ratio, 4),
+        "ratio_min": round(min(per_round), 4),
+        "ratio_max": round(max(per_round), 4),
+        "ratio_rounds": [round(r, 4) for r in per_round],
+        "overhead_ratio": round(overhead, 4),
+        "added_ms": round(added * 1000, 2),
+        "clean_step_ms": round(med(clean) * 1000, 2),
+        "perturbed_step_ms": round(med(pert) * 1000, 2),
+        "needs_extra_render": pipe.needs_extra_render,
+        "masks": masks,
+        "mask_renders_per_step": round(sum(p["mask_renders"] for _, p, _ in runs) / n, 3),
+        "reference_mask_renders": sum(p["reference_mask_renders"] for _, p, _ in runs),
+        "active_steps": sum(p["active"] for _, p, _ in runs),
+        "measured_steps": n,
+        "goal": goal,
+        "meets_goal": ratio <= goal,
+        "overhead_meets_goal": overhead <= goal,
+    }
 
 
 def markdown_table(rows: list[dict], meta: dict) -> str:
-    lines = ["### Observation perturbations: step time against the clean env (`vpro bench perturb`)", "",
-             f"Measured {meta['date']} on {meta['machine']} with `{meta.get('command', 'vpro bench perturb')}`: "
-             f"{meta['steps']} scripted steps per block at {meta['resolution']} px, clean and perturbed blocks "
-             f"interleaved, the whole sequence repeated {meta.get('rounds', 1)} times (wall {meta.get('wall', '?')}; "
-             f"load average {meta.get('load', '?')}). "
-             "ratio = median perturbed step / median step of the neighbouring clean blocks, pooled over the rounds "
-             "(wall clock: includes the noise of the machine's load); range = lowest and highest per-round ratio; "
-             "the control row is an identity pipeline measured the same way (the noise floor); "
-             "overhead = 1 + the pipeline's own added work per step (observe, scene edits and scene captures, timed "
-             f"directly) / the clean step. Goal: <= {GOAL_MASK} for mask settings, <= {GOAL_OTHER} for the others. "
-             "`active` = steps on which the setting changed something (schedules and phases decide; blocks start "
-             "from the initial state, so settings that wait for a grasp or a placement seldom act in them).", "",
-             "| setting | task | masks | clean ms | perturbed ms | ratio | range | added ms | overhead | active | "
-             "goal met (ratio / overhead) |",
-             "|---|---|---|---:|---:|---:|---|---:|---:|---:|---|"]
+    lines = [
+        "### Observation perturbations: step time against the clean env (`vpro bench perturb`)",
+        "",
+        f"Measured {meta['date']} on {meta['machine']} with `{meta.get('command', 'vpro bench perturb')}`: "
+        f"{meta['steps']} scripted steps per block at {meta['resolution']} px, clean and perturbed blocks "
+        f"interleaved, the whole sequence repeated {meta.get('rounds', 1)} times (wall {meta.get('wall', '?')}; "
+        f"load average {meta.get('load', '?')}). "
+        "ratio = median perturbed step / median step of the neighbouring clean blocks, pooled over the rounds "
+        "(wall clock: includes the noise of the machine's load); range = lowest and highest per-round ratio; "
+        "the control row is an identity pipeline measured the same way (the noise floor); "
+        "overhead = 1 + the pipeline's own added work per step (observe, scene edits and scene captures, timed "
+        f"directly) / the clean step. Goal: <= {GOAL_MASK} for mask settings, <= {GOAL_OTHER} for the others. "
+        "`active` = steps on which the setting changed something (schedules and phases decide; blocks start "
+        "from the initial state, so settings that wait for a grasp or a placement seldom act in them).",
+        "",
+        "| setting | task | masks | clean ms | perturbed ms | ratio | range | added ms | overhead | active | "
+        "goal met (ratio / overhead) |",
+        "|---|---|---|---:|---:|---:|---|---:|---:|---:|---|",
+    ]
     for r in rows:
-        met = "" if r["setting"] == CONTROL else (f"{'yes' if r['meets_goal'] else '**no**'} / "
-                                                    f"{'yes' if r.get('overhead_meets_goal', r['meets_goal']) else '**no**'}")
+        met = (
+            ""
+            if r["setting"] == CONTROL
+            else (
+                f"{'yes' if r['meets_goal'] else '**no**'} / "
+                f"{'yes' if r.get('overhead_meets_goal', r['meets_goal']) else '**no**'}"
+            )
+        )
         rng = f"{r['ratio_min']:.3f}-{r['ratio_max']:.3f}" if "ratio_min" in r else ""
         masks = {"capture": "yes", "reference": "yes, full-scene segmentation"}.get(str(r.get("mask_path")), "no")
-        lines.append(f"| `{r['setting']}` | {r['task']} | {masks} | "
-                     f"{r['clean_step_ms']:.0f} | {r['perturbed_step_ms']:.0f} | {r['ratio']:.3f} | {rng} | "
-                     f"{r.get('added_ms', 0):.1f} | {r.get('overhead_ratio', r['ratio']):.3f} | "
-                     f"{r['active_steps']}/{r.get('measured_steps', r['steps'])} | {met} |")
+        lines.append(
+            f"| `{r['setting']}` | {r['task']} | {masks} | "
+            f"{r['clean_step_ms']:.0f} | {r['perturbed_step_ms']:.0f} | {r['ratio']:.3f} | {rng} | "
+            f"{r.get('added_ms', 0):.1f} | {r.get('overhead_ratio', r['ratio']):.3f} | "
+            f"{r['active_steps']}/{r.get('measured_steps', r['steps'])} | {met} |"
+        )
     by_cat: dict[str, list[dict]] = {}
     for r in rows:
-        by_cat.setdefault(r["category"] + (" (full-scene segmentation)" if r.get("mask_path") == "reference" else ""),
-                          []).append(r)
-    lines += ["", "| category | settings | median ratio | max ratio | median overhead | max overhead | goal | "
-              "met (ratio / overhead) |", "|---|---:|---:|---:|---:|---:|---:|---|"]
+        by_cat.setdefault(
+            r["category"] + (" (full-scene segmentation)" if r.get("mask_path") == "reference" else ""), []
+        ).append(r)
+    lines += [
+        "",
+        "| category | settings | median ratio | max ratio | median overhead | max overhead | goal | "
+        "met (ratio / overhead) |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
     for cat, rs in by_cat.items():
         ratios = [r["ratio"] for r in rs]
         over = [r.get("overhead_ratio", r["ratio"]) for r in rs]
         goal = rs[0].get("goal", "")
-        met = ("" if cat == "control" else
-               f"{sum(r['meets_goal'] for r in rs)}/{len(rs)} / {sum(r.get('overhead_meets_goal', True) for r in rs)}/{len(rs)}")
-        lines.append(f"| {cat} | {len(rs)} | {statistics.median(ratios):.3f} | {max(ratios):.3f} | "
-                     f"{statistics.median(over):.3f} | {max(over):.3f} | {goal if cat != 'control' else ''} | {met} |")
+        met = (
+            ""
+            if cat == "control"
+            else f"{sum(r['meets_goal'] for r in rs)}/{len(rs)} / {sum(r.get('overhead_meets_goal', True) for r in rs)}/{len(rs)}"
+        )
+        lines.append(
+            f"| {cat} | {len(rs)} | {statistics.median(ratios):.3f} | {max(ratios):.3f} | "
+            f"{statistics.median(over):.3f} | {max(over):.3f} | {goal if cat != 'control' else ''} | {met} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -268,7 +340,9 @@ def run_bench_perturb(args) -> int:
         from tqdm import tqdm
 
         per_setting = 2 if args.mask_path == "both" else 1  # an upper bound: only mask settings double
-        progress = tqdm(total=(len(settings) * per_setting + 1) * args.rounds, desc="bench perturb", unit="block", file=sys.stderr)
+        progress = tqdm(
+            total=(len(settings) * per_setting + 1) * args.rounds, desc="bench perturb", unit="block", file=sys.stderr
+        )
     except ImportError:  # pragma: no cover
         progress = None
     load0, t0 = os.getloadavg()[0], time.time()
@@ -277,14 +351,23 @@ def run_bench_perturb(args) -> int:
     if progress:
         progress.close()
     write_text_atomic(args.out, json.dumps(rows, indent=1) + "\n")
-    meta = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(t0)), "steps": args.steps, "rounds": args.rounds,
-            "resolution": args.resolution, "wall": f"{wall / 60:.0f} min", "load": f"{load0:.1f} at the start, {load1:.1f} at the end",
-            "command": "vpro " + " ".join(sys.argv[1:]),
-            "machine": f"{platform.machine()} {platform.system()} ({_cores()} cores, no GPU: Mesa llvmpipe)"}
+    meta = {
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(t0)),
+        "steps": args.steps,
+        "rounds": args.rounds,
+        "resolution": args.resolution,
+        "wall": f"{wall / 60:.0f} min",
+        "load": f"{load0:.1f} at the start, {load1:.1f} at the end",
+        "command": "vpro " + " ".join(sys.argv[1:]),
+        "machine": f"{platform.machine()} {platform.system()} ({_cores()} cores, no GPU: Mesa llvmpipe)",
+    }
     update_markdown_section(args.doc, SECTION, markdown_table(rows, meta))
     missed = [r["setting"] for r in rows if r["setting"] != CONTROL and not r["meets_goal"]]
-    print(f"wrote {args.out} ({len(rows) - 1} settings and the control; {len(missed)} above their goal) and the "
-          f"'{SECTION}' section of {args.doc}", file=sys.stderr)
+    print(
+        f"wrote {args.out} ({len(rows) - 1} settings and the control; {len(missed)} above their goal) and the "
+        f"'{SECTION}' section of {args.doc}",
+        file=sys.stderr,
+    )
     return 0
 
 

@@ -1,4 +1,5 @@
 """`vpro build`: scene cases as files in out/, content-addressed, parallel, resumable."""
+
 from __future__ import annotations
 
 import json
@@ -13,23 +14,33 @@ from vpro_assets.core import paths
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.scene.build import build
 
-SELECT_HELP = ("case id, setting id, category, dimension, suite or task (repeatable; several are a union; "
-               "none means every case). Only scene cases have artifacts; others are skipped.")
+SELECT_HELP = (
+    "case id, setting id, category, dimension, suite or task (repeatable; several are a union; "
+    "none means every case). Only scene cases have artifacts; others are skipped."
+)
 
 
 def add_parser(sub) -> None:
-    b = sub.add_parser("build", help="generate scene cases (BDDL, objects, frozen initial states) into out/",
-                       description="Generate the artifacts of the selected scene cases into out/scene/<case id>/: "
-                       "the variant BDDL, 10 settled initial states (LIBERO .pruned_init and .npz) and meta.json; "
-                       "generated objects go to out/objects/. Content-addressed: a case whose inputs did not "
-                       "change is not rebuilt. Cases are written atomically, so an interrupted build resumes. "
-                       "The artifact hashes are recorded in scene_artifacts.lock.json for `vpro catalog build`.")
+    b = sub.add_parser(
+        "build",
+        help="generate scene cases (BDDL, objects, frozen initial states) into out/",
+        description="Generate the artifacts of the selected scene cases into out/scene/<case id>/: "
+        "the variant BDDL, 10 settled initial states (LIBERO .pruned_init and .npz) and meta.json; "
+        "generated objects go to out/objects/. Content-addressed: a case whose inputs did not "
+        "change is not rebuilt. Cases are written atomically, so an interrupted build resumes. "
+        "The artifact hashes are recorded in scene_artifacts.lock.json for `vpro catalog build`.",
+    )
     b.add_argument("--select", action="append", metavar="FILTER", help=SELECT_HELP)
     b.add_argument("-j", "--jobs", type=int, default=1, help="worker processes (default 1; a case takes ~10-25 s)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.add_argument("--no-record", action="store_true", help="do not record the hashes in the lock file")
-    b.add_argument("--timings", type=Path, default=None, metavar="FILE.json",
-                   help="write every case's status, seconds and per-stage split (mesh work, settling...) to FILE.json")
+    b.add_argument(
+        "--timings",
+        type=Path,
+        default=None,
+        metavar="FILE.json",
+        help="write every case's status, seconds and per-stage split (mesh work, settling...) to FILE.json",
+    )
     b.add_argument("--catalog", type=Path, default=None, help="catalog to read (default: catalog.json)")
     b.set_defaults(run=run_build)
 
@@ -59,9 +70,26 @@ def run_build(args) -> int:
     wall = time.perf_counter() - started
     print(f"{built} built, {unchanged} unchanged, {len(failed)} failed in {wall:.1f} s ({split})", file=sys.stderr)
     if args.timings:
-        write_text_atomic(args.timings, json.dumps({
-            "wall_seconds": round(wall, 1), "jobs": args.jobs, "stage_seconds": {k: round(v, 1) for k, v in stages.items()},
-            "cases": [{"case": r.case_id, "status": r.status, "seconds": round(r.seconds, 2),
-                       "stages": {k: round(v, 2) for k, v in r.stages.items()}, "error": r.error} for r in results],
-        }, indent=1) + "\n")
+        write_text_atomic(
+            args.timings,
+            json.dumps(
+                {
+                    "wall_seconds": round(wall, 1),
+                    "jobs": args.jobs,
+                    "stage_seconds": {k: round(v, 1) for k, v in stages.items()},
+                    "cases": [
+                        {
+                            "case": r.case_id,
+                            "status": r.status,
+                            "seconds": round(r.seconds, 2),
+                            "stages": {k: round(v, 2) for k, v in r.stages.items()},
+                            "error": r.error,
+                        }
+                        for r in results
+                    ],
+                },
+                indent=1,
+            )
+            + "\n",
+        )
     return 1 if failed else 0

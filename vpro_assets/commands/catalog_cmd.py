@@ -1,4 +1,5 @@
 """`vpro catalog build|verify|show`."""
+
 from __future__ import annotations
 
 import json
@@ -13,21 +14,33 @@ MAX_SHOWN = 20
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("catalog", help="build, verify or inspect catalog.json",
-                       description="The catalog lists every case (task x setting) with its parameters, trial "
-                       "seeds, initial-state references and artifact hashes.")
+    p = sub.add_parser(
+        "catalog",
+        help="build, verify or inspect catalog.json",
+        description="The catalog lists every case (task x setting) with its parameters, trial "
+        "seeds, initial-state references and artifact hashes.",
+    )
     csub = p.add_subparsers(dest="catalog_command", metavar="ACTION", required=True)
-    b = csub.add_parser("build", help="rebuild the catalog from LIBERO and the taxonomy and write it",
-                        description="Rebuild the catalog from LIBERO's task files and the taxonomy; the output is "
-                        "byte-identical for identical inputs.")
+    b = csub.add_parser(
+        "build",
+        help="rebuild the catalog from LIBERO and the taxonomy and write it",
+        description="Rebuild the catalog from LIBERO's task files and the taxonomy; the output is "
+        "byte-identical for identical inputs.",
+    )
     b.add_argument("--out", type=Path, default=None, help="where to write (default: the repository's catalog.json)")
     b.set_defaults(run=run_build)
-    v = csub.add_parser("verify", help="rebuild in memory and compare with the committed catalog",
-                        description="Rebuild in memory and compare with the catalog file; on a difference, name "
-                        "the case and field and exit 1.")
+    v = csub.add_parser(
+        "verify",
+        help="rebuild in memory and compare with the committed catalog",
+        description="Rebuild in memory and compare with the catalog file; on a difference, name "
+        "the case and field and exit 1.",
+    )
     v.add_argument("--catalog", type=Path, default=None, help="catalog to check (default: catalog.json)")
-    v.add_argument("--artifacts", action="store_true",
-                   help="also check every scene artifact built in out/ against the sha256 the catalog records")
+    v.add_argument(
+        "--artifacts",
+        action="store_true",
+        help="also check every scene artifact built in out/ against the sha256 the catalog records",
+    )
     v.set_defaults(run=run_verify)
     s = csub.add_parser("show", help="print one case's record", description="Print one case (or Normal baseline).")
     s.add_argument("case", help="case id, e.g. libero_goal-03/camera_staleness/wrist-delay2-v1")
@@ -40,8 +53,11 @@ def run_build(args) -> int:
     catalog = build_catalog()
     write_catalog(catalog, out)
     t = catalog["header"]["totals"]
-    print(f"wrote {out}: {t['cases']} cases, {t['settings']} settings, {t['categories']} categories, "
-          f"{t['dimensions']} dimensions, {t['tasks']} tasks", file=sys.stderr)
+    print(
+        f"wrote {out}: {t['cases']} cases, {t['settings']} settings, {t['categories']} categories, "
+        f"{t['dimensions']} dimensions, {t['tasks']} tasks",
+        file=sys.stderr,
+    )
     return 0
 
 
@@ -49,11 +65,13 @@ def run_verify(args) -> int:
     path = args.catalog or paths.catalog_path()
     committed, diffs = verify_catalog(path)
     if getattr(args, "artifacts", False):
-
         artifact_diffs, checked, missing = check_built(committed)
         diffs = diffs + artifact_diffs
-        print(f"artifacts: {checked} built file(s) checked against recorded sha256, {missing} not built in "
-              f"{paths.out_dir()}", file=sys.stderr)
+        print(
+            f"artifacts: {checked} built file(s) checked against recorded sha256, {missing} not built in "
+            f"{paths.out_dir()}",
+            file=sys.stderr,
+        )
     if diffs:
         for line in diffs[:MAX_SHOWN]:
             print(f"DIFFERS {line}", file=sys.stderr)
@@ -62,8 +80,10 @@ def run_verify(args) -> int:
         print(f"{path}: {len(diffs)} difference(s) from a rebuild", file=sys.stderr)
         return 1
     t = committed["header"]["totals"]
-    print(f"{path}: OK, identical to a rebuild ({t['cases']} cases, {t['settings']} settings, "
-          f"{t['categories']} categories, {t['dimensions']} dimensions, {t['tasks']} tasks)")
+    print(
+        f"{path}: OK, identical to a rebuild ({t['cases']} cases, {t['settings']} settings, "
+        f"{t['categories']} categories, {t['dimensions']} dimensions, {t['tasks']} tasks)"
+    )
     return 0
 
 

@@ -1,5 +1,6 @@
 """`vpro drift`: re-settle the selected cases in this environment and compare them with the
 committed settled-scene fingerprints; exit 1 when a case drifted beyond the tolerances."""
+
 from __future__ import annotations
 
 import sys
@@ -19,21 +20,41 @@ from vpro_assets.rollout.settle import first_frames, settle_trial
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("drift", help="re-settle cases here and compare with the committed settled-scene fingerprints",
-                       description="Settle the selected cases' trials in this environment (no rendering) and compare "
-                       "every object's pose and every articulated joint with the fingerprints recorded beside the "
-                       "catalog (settle_fingerprints.json, with the simulator they were taken with). Prints one row "
-                       "per case; writes the recorded and current first frames side by side for each drifted case; "
-                       f"exits 1 when a case moved more than {fp.TOLERANCES['displacement_cm']} cm, tilted more than "
-                       f"{fp.TOLERANCES['tilt_deg']} degrees or a joint changed more than {fp.TOLERANCES['joint_change']} "
-                       "(docs/simulator.md).")
-    p.add_argument("--select", action="append", default=[], metavar="FILTER",
-                   help="case id, setting, category, suite, task or 'normal' (repeatable; default: every fingerprinted case)")
-    p.add_argument("--trials", type=int, default=None, help="trials per case, from the first (default: all fingerprinted)")
-    p.add_argument("--fingerprints", type=Path, default=None, metavar="FILE",
-                   help=f"fingerprint file (default: {fp.FILE_NAME} beside the catalog)")
-    p.add_argument("--pictures", type=Path, default=None, metavar="DIR",
-                   help="where the first-frame pictures of drifted cases go (default: out/drift/)")
+    p = sub.add_parser(
+        "drift",
+        help="re-settle cases here and compare with the committed settled-scene fingerprints",
+        description="Settle the selected cases' trials in this environment (no rendering) and compare "
+        "every object's pose and every articulated joint with the fingerprints recorded beside the "
+        "catalog (settle_fingerprints.json, with the simulator they were taken with). Prints one row "
+        "per case; writes the recorded and current first frames side by side for each drifted case; "
+        f"exits 1 when a case moved more than {fp.TOLERANCES['displacement_cm']} cm, tilted more than "
+        f"{fp.TOLERANCES['tilt_deg']} degrees or a joint changed more than {fp.TOLERANCES['joint_change']} "
+        "(docs/simulator.md).",
+    )
+    p.add_argument(
+        "--select",
+        action="append",
+        default=[],
+        metavar="FILTER",
+        help="case id, setting, category, suite, task or 'normal' (repeatable; default: every fingerprinted case)",
+    )
+    p.add_argument(
+        "--trials", type=int, default=None, help="trials per case, from the first (default: all fingerprinted)"
+    )
+    p.add_argument(
+        "--fingerprints",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help=f"fingerprint file (default: {fp.FILE_NAME} beside the catalog)",
+    )
+    p.add_argument(
+        "--pictures",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="where the first-frame pictures of drifted cases go (default: out/drift/)",
+    )
     p.add_argument("--no-pictures", action="store_true", help="do not render the drifted cases' first frames")
     p.set_defaults(run=run_drift)
 
@@ -54,15 +75,17 @@ def run_drift(args) -> int:
     for case in tqdm(cases, desc="drift", unit="case", file=sys.stderr, disable=None):
         entry = prints["cases"].get(case["id"])
         trials = sorted(int(t) for t in entry["trials"]) if entry else [0]
-        records += [settle_trial(case, t, prints["wait_steps"]) for t in trials[:args.trials]]
+        records += [settle_trial(case, t, prints["wait_steps"]) for t in trials[: args.trials]]
     rows = fp.compare(prints, records)
     print(f"fingerprints: {simulator_label(prints['simulator'])}; this environment: {simulator_label(versions)}")
     print("| case | trials | displacement (cm) | object | tilt change (deg) | object | joint change | status |")
     print("|---|---|---|---|---|---|---|---|")
     for row in rows:
-        print(f"| {row['case']} | {row['trials']} | {row['displacement_cm']:.2f} | {row['object'] or '-'} "
-              f"| {row['tilt_deg']:.1f} | {row['tilt_object'] or '-'} | {row['joint_change']:.4f} {row['joint'] or ''} "
-              f"| {row['status']}{': ' + row['note'] if row['note'] else ''} |")
+        print(
+            f"| {row['case']} | {row['trials']} | {row['displacement_cm']:.2f} | {row['object'] or '-'} "
+            f"| {row['tilt_deg']:.1f} | {row['tilt_object'] or '-'} | {row['joint_change']:.4f} {row['joint'] or ''} "
+            f"| {row['status']}{': ' + row['note'] if row['note'] else ''} |"
+        )
     drifted = [r for r in rows if r["status"] == "drifted"]
     unchecked = [r for r in rows if r["status"] in ("stale", "missing")]
     if drifted and not args.no_pictures:
@@ -74,12 +97,21 @@ def run_drift(args) -> int:
             then, now = first_frames(by_id[row["case"]], trial, recorded, wait_steps=prints["wait_steps"])
             path = Path(out) / f"{row['case'].replace('/', '__')}-trial{trial}.png"
             path.parent.mkdir(parents=True, exist_ok=True)
-            write_png(path, np.concatenate([then, now], axis=1),
-                      labels=(f"recorded: mujoco {prints['simulator'].get('mujoco')}", f"now: mujoco {versions.get('mujoco')}"))
+            write_png(
+                path,
+                np.concatenate([then, now], axis=1),
+                labels=(
+                    f"recorded: mujoco {prints['simulator'].get('mujoco')}",
+                    f"now: mujoco {versions.get('mujoco')}",
+                ),
+            )
             print(f"picture: {path}")
     tol = fp.TOLERANCES
-    print(f"{len(drifted)} of {len(rows)} case(s) drifted beyond {tol['displacement_cm']} cm / {tol['tilt_deg']} deg / "
-          f"joint {tol['joint_change']}" + (f"; {len(unchecked)} not checked (stale or missing fingerprints)" if unchecked else ""))
+    print(
+        f"{len(drifted)} of {len(rows)} case(s) drifted beyond {tol['displacement_cm']} cm / {tol['tilt_deg']} deg / "
+        f"joint {tol['joint_change']}"
+        + (f"; {len(unchecked)} not checked (stale or missing fingerprints)" if unchecked else "")
+    )
     if drifted:
         print("drifted: " + " ".join(r["case"] for r in drifted))
     return 1 if drifted or unchecked else 0

@@ -1,4 +1,5 @@
 """`vpro env`: build a task's or case's LIBERO env headless and snapshot both views."""
+
 from __future__ import annotations
 
 import sys
@@ -15,10 +16,13 @@ from vpro_assets.scene.build import built_case
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("env", help="build an env headless and render both views to a PNG",
-                       description="Build the LIBERO env of a base task or case headless (MUJOCO_GL chosen "
-                       "automatically; a scene case from its built BDDL and frozen states), load an initial state, step once with the no-op action and write both "
-                       "views side by side (upright; third-person left, wrist right).")
+    p = sub.add_parser(
+        "env",
+        help="build an env headless and render both views to a PNG",
+        description="Build the LIBERO env of a base task or case headless (MUJOCO_GL chosen "
+        "automatically; a scene case from its built BDDL and frozen states), load an initial state, step once with the no-op action and write both "
+        "views side by side (upright; third-person left, wrist right).",
+    )
     p.add_argument("target", metavar="CASE_OR_TASK", help="task key (libero_goal-03), LIBERO task name, or case id")
     p.add_argument("--snapshot", type=Path, required=True, metavar="FILE.png", help="PNG to write")
     p.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION, help="camera height and width (default 256)")
@@ -41,7 +45,6 @@ def run_env(args) -> int:
     task, case = resolve(args.target)
     bddl = None
     if case is not None and case.get("level") == "scene":
-
         built = built_case(case["id"])
         bddl, states = str(built["bddl"]), read_init_states(built["init_states"])
     else:
@@ -55,5 +58,3 @@ def run_env(args) -> int:
         write_png(args.snapshot, views_side_by_side(obs), labels=("agentview", "robot0_eye_in_hand"))
     print(f"wrote {args.snapshot} ({task.key}: {task.language})", file=sys.stderr)
     return 0
-
-

@@ -6,6 +6,7 @@ no-op action otherwise) runs through the case's pipeline; at the first step of e
 tracker reports (and at the steps where the setting's own clock matters: freeze and replay
 starts), both views are shown clean and perturbed, upright, one row per moment.
 """
+
 from __future__ import annotations
 
 import sys
@@ -27,22 +28,29 @@ from vpro_assets.scene.gallery import write_gallery
 PANEL_GRAY = 96
 
 
-DESCRIPTION = ("Pictures of what the benchmark changes. Given a task key (libero_goal-03): the agentview image "
-               "of the first initial state of every built scene case of the task, plus the unchanged task, in one "
-               "labelled gallery. Given an observation-level case id: a short scripted rollout of the case, one row "
-               "per moment (the first step of each manipulation phase, plus the setting's own key steps), columns "
-               "clean and perturbed for the third-person and wrist views, upright.")
+DESCRIPTION = (
+    "Pictures of what the benchmark changes. Given a task key (libero_goal-03): the agentview image "
+    "of the first initial state of every built scene case of the task, plus the unchanged task, in one "
+    "labelled gallery. Given an observation-level case id: a short scripted rollout of the case, one row "
+    "per moment (the first step of each manipulation phase, plus the setting's own key steps), columns "
+    "clean and perturbed for the third-person and wrist views, upright."
+)
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("preview", help="PNG of a task's scene variants (gallery) or of a case's perturbation",
-                       description=DESCRIPTION)
-    p.add_argument("target", metavar="TASK_OR_CASE",
-                   help="task key (gallery of its scene variants) or observation case id "
-                        "(e.g. libero_spatial-00/camera_staleness/wrist-freeze-v1)")
+    p = sub.add_parser(
+        "preview", help="PNG of a task's scene variants (gallery) or of a case's perturbation", description=DESCRIPTION
+    )
+    p.add_argument(
+        "target",
+        metavar="TASK_OR_CASE",
+        help="task key (gallery of its scene variants) or observation case id "
+        "(e.g. libero_spatial-00/camera_staleness/wrist-freeze-v1)",
+    )
     p.add_argument("--out", type=Path, required=True, metavar="FILE.png", help="PNG to write")
-    p.add_argument("--resolution", type=int, default=None,
-                   help="pixels per image (default 256 for a gallery, 128 for a case)")
+    p.add_argument(
+        "--resolution", type=int, default=None, help="pixels per image (default 256 for a gallery, 128 for a case)"
+    )
     p.add_argument("--steps", type=int, default=160, help="case: longest rollout (default 160 steps)")
     p.add_argument("--trial", type=int, default=0, help="case: trial, i.e. initial state and seeds (default 0)")
     p.add_argument("--catalog", type=Path, default=None, help="catalog to read (default: catalog.json)")
@@ -81,8 +89,10 @@ def _case_sheet(catalog: dict, case_id: str, out: Path, resolution: int, steps: 
 
     case = find_case(catalog, case_id)
     if case.get("level") != "observation":
-        raise VProError(f"case {case['id']} is not an observation-level case (level {case.get('level')!r}); "
-                        "preview shows observation perturbations")
+        raise VProError(
+            f"case {case['id']} is not an observation-level case (level {case.get('level')!r}); "
+            "preview shows observation perturbations"
+        )
     task = get_task(case["task"])
     states = libero_init_states(task)
     row = case["init_states"]["rows"][trial] if trial < len(case["init_states"]["rows"]) else None
@@ -119,6 +129,5 @@ def _case_sheet(catalog: dict, case_id: str, out: Path, resolution: int, steps: 
         pipe.detach()
         env.close()
     write_png(out, np.concatenate(rows, axis=0))
-    print(f"wrote {out}: {case['id']}, {len(rows)} moments, phases {pipe.phase_timeline()['changes']}",
-          file=sys.stderr)
+    print(f"wrote {out}: {case['id']}, {len(rows)} moments, phases {pipe.phase_timeline()['changes']}", file=sys.stderr)
     return 0

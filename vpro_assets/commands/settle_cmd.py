@@ -1,6 +1,7 @@
 """`vpro settle`: settle the selected cases' starts without rendering and report what the first
 policy frame would show (objects off the table or out of view, speed, broken :init relations), and
 pose differences against another run's JSON (docs/simulator.md)."""
+
 from __future__ import annotations
 
 import json
@@ -21,23 +22,44 @@ from vpro_assets.rollout.settle import SPEED_LIMIT_M_S, pose_difference, settle_
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("settle", help="settle cases' starts (no rendering) and report objects off the table, "
-                       "out of view, moving, broken :init relations",
-                       description="For each selected case and trial: seed, reset, set LIBERO's (or the scene "
-                       "case's) initial state and run the wait steps an episode runs before the policy's first "
-                       "frame, without rendering; then report per trial the objects that left the table or the "
-                       "third-person view, the fastest object at the first frame, and the BDDL :init relations "
-                       "that no longer hold (docs/simulator.md).")
-    p.add_argument("--select", action="append", default=[], metavar="FILTER",
-                   help="case id, setting, category, suite, task or 'normal' (repeatable; default: normal)")
+    p = sub.add_parser(
+        "settle",
+        help="settle cases' starts (no rendering) and report objects off the table, "
+        "out of view, moving, broken :init relations",
+        description="For each selected case and trial: seed, reset, set LIBERO's (or the scene "
+        "case's) initial state and run the wait steps an episode runs before the policy's first "
+        "frame, without rendering; then report per trial the objects that left the table or the "
+        "third-person view, the fastest object at the first frame, and the BDDL :init relations "
+        "that no longer hold (docs/simulator.md).",
+    )
+    p.add_argument(
+        "--select",
+        action="append",
+        default=[],
+        metavar="FILTER",
+        help="case id, setting, category, suite, task or 'normal' (repeatable; default: normal)",
+    )
     p.add_argument("--trials", type=int, default=3, help="trials per case, from the first (default 3)")
-    p.add_argument("--wait-steps", type=int, default=WAIT_STEPS, help=f"no-op steps before the first frame (default {WAIT_STEPS})")
+    p.add_argument(
+        "--wait-steps", type=int, default=WAIT_STEPS, help=f"no-op steps before the first frame (default {WAIT_STEPS})"
+    )
     p.add_argument("--json", type=Path, metavar="OUT.json", help="write every trial's measurements (poses included)")
-    p.add_argument("--compare", type=Path, metavar="OTHER.json",
-                   help="a --json file of another run (e.g. another MuJoCo): report pose differences per case")
-    p.add_argument("--fingerprints", type=Path, nargs="?", const=fp.fingerprints_path(), default=None, metavar="FILE",
-                   help=f"record the settled poses as the cases' fingerprints (default file: {fp.FILE_NAME} beside "
-                   "the catalog; cases already there under the same simulator are kept)")
+    p.add_argument(
+        "--compare",
+        type=Path,
+        metavar="OTHER.json",
+        help="a --json file of another run (e.g. another MuJoCo): report pose differences per case",
+    )
+    p.add_argument(
+        "--fingerprints",
+        type=Path,
+        nargs="?",
+        const=fp.fingerprints_path(),
+        default=None,
+        metavar="FILE",
+        help=f"record the settled poses as the cases' fingerprints (default file: {fp.FILE_NAME} beside "
+        "the catalog; cases already there under the same simulator are kept)",
+    )
     p.set_defaults(run=run_settle)
 
 
@@ -67,25 +89,34 @@ def run_settle(args) -> int:
     records = []
     for case in tqdm(cases, desc="settle", unit="case", file=sys.stderr, disable=None):
         records += [settle_trial(case, t, args.wait_steps) for t in range(args.trials)]
-    print(f"settled {len(records)} trial(s) of {len(cases)} case(s) under {simulator_label(versions)}, "
-          f"{args.wait_steps} wait steps")
+    print(
+        f"settled {len(records)} trial(s) of {len(cases)} case(s) under {simulator_label(versions)}, "
+        f"{args.wait_steps} wait steps"
+    )
     print("| case | trial | off table | out of view | fastest (m/s) | :init relations not holding |")
     print("|---|---|---|---|---|---|")
     for rec in records:
         objs = rec["objects"]
         fastest = max(objs.items(), key=lambda kv: kv[1]["speed"]) if objs else ("-", {"speed": 0.0})
-        print(f"| {rec['case']} | {rec['trial']} | {', '.join(n for n, o in objs.items() if o['left_table']) or '-'} "
-              f"| {', '.join(n for n, o in objs.items() if o['out_of_view']) or '-'} "
-              f"| {fastest[1]['speed']:.3f} {fastest[0] if fastest[1]['speed'] > SPEED_LIMIT_M_S else ''} "
-              f"| {'; '.join(r['relation'] for r in rec['relations'] if not r['holds']) or '-'} |")
+        print(
+            f"| {rec['case']} | {rec['trial']} | {', '.join(n for n, o in objs.items() if o['left_table']) or '-'} "
+            f"| {', '.join(n for n, o in objs.items() if o['out_of_view']) or '-'} "
+            f"| {fastest[1]['speed']:.3f} {fastest[0] if fastest[1]['speed'] > SPEED_LIMIT_M_S else ''} "
+            f"| {'; '.join(r['relation'] for r in rec['relations'] if not r['holds']) or '-'} |"
+        )
     bad = sum(bool(trial_problems(rec)) for rec in records)
-    print(f"{bad} of {len(records)} trial(s) start with an object off the table or out of view, moving faster "
-          f"than {SPEED_LIMIT_M_S} m/s, or an :init relation broken")
+    print(
+        f"{bad} of {len(records)} trial(s) start with an object off the table or out of view, moving faster "
+        f"than {SPEED_LIMIT_M_S} m/s, or an :init relation broken"
+    )
     if other is not None:
         _print_comparison(records, other, versions)
     if args.json:
-        write_text_atomic(args.json, json.dumps({"simulator": versions, "wait_steps": args.wait_steps,
-                                                 "records": records}, sort_keys=True) + "\n")
+        write_text_atomic(
+            args.json,
+            json.dumps({"simulator": versions, "wait_steps": args.wait_steps, "records": records}, sort_keys=True)
+            + "\n",
+        )
         print(f"wrote {args.json}")
     if args.fingerprints:
         base = fp.load(args.fingerprints) if Path(args.fingerprints).exists() else None
@@ -96,8 +127,10 @@ def run_settle(args) -> int:
 
 def _print_comparison(records: list[dict], other: dict, versions: dict) -> None:
     theirs = {(r["case"], r["trial"]): r for r in other["records"]}
-    print(f"\npose differences: this run ({simulator_label(versions)}) against "
-          f"{simulator_label(other.get('simulator', {}))}; largest over the trials compared")
+    print(
+        f"\npose differences: this run ({simulator_label(versions)}) against "
+        f"{simulator_label(other.get('simulator', {}))}; largest over the trials compared"
+    )
     print("| case | trials | displacement (cm) | object | tilt change (deg) | object | joint change |")
     print("|---|---|---|---|---|---|---|")
     per_case: dict[str, list[dict]] = {}
@@ -108,8 +141,10 @@ def _print_comparison(records: list[dict], other: dict, versions: dict) -> None:
         d = max(diffs, key=lambda x: x["displacement_cm"])
         t = max(diffs, key=lambda x: x["tilt_deg"])
         j = max(diffs, key=lambda x: x["joint_change"])
-        print(f"| {cid} | {len(diffs)} | {d['displacement_cm']:.2f} | {d['object'] or '-'} | {t['tilt_deg']:.1f} "
-              f"| {t['tilt_object'] or '-'} | {j['joint_change']:.4f} {j['joint'] or ''} |")
+        print(
+            f"| {cid} | {len(diffs)} | {d['displacement_cm']:.2f} | {d['object'] or '-'} | {t['tilt_deg']:.1f} "
+            f"| {t['tilt_object'] or '-'} | {j['joint_change']:.4f} {j['joint'] or ''} |"
+        )
     missing = len(records) - sum(len(v) for v in per_case.values())
     if missing:
         print(f"{missing} trial(s) not in the other file")

@@ -1,4 +1,5 @@
 """`vpro tasks`: the 40 base tasks, parsed from LIBERO's BDDL."""
+
 from __future__ import annotations
 
 import json
@@ -9,9 +10,12 @@ from vpro_assets.libero.tasks import get_task, load_tasks
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("tasks", help="list the 40 base tasks (LIBERO order) with target and receptacle",
-                       description="List the 40 base tasks of libero_spatial, libero_object, libero_goal and "
-                       "libero_10 in LIBERO's order, as parsed from LIBERO's BDDL files.")
+    p = sub.add_parser(
+        "tasks",
+        help="list the 40 base tasks (LIBERO order) with target and receptacle",
+        description="List the 40 base tasks of libero_spatial, libero_object, libero_goal and "
+        "libero_10 in LIBERO's order, as parsed from LIBERO's BDDL files.",
+    )
     p.add_argument("task", nargs="?", help="show one task's full record (key like libero_goal-03, or LIBERO name)")
     p.add_argument("--suite", help="only this suite")
     p.add_argument("--json", action="store_true", help="print JSON records instead of a table")

@@ -1,4 +1,5 @@
 """`vpro taxonomy`: the 96 settings with their parameters; the generated docs/taxonomy.md."""
+
 from __future__ import annotations
 
 import json
@@ -10,9 +11,12 @@ from vpro_assets.benchmark.taxonomy_doc import write_taxonomy_doc
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("taxonomy", help="list dimensions, categories and settings; write docs/taxonomy.md",
-                       description="Print the 96 settings with their parameters, or write the generated "
-                       "taxonomy document (settings, parameters, applicability rules, case counts per suite).")
+    p = sub.add_parser(
+        "taxonomy",
+        help="list dimensions, categories and settings; write docs/taxonomy.md",
+        description="Print the 96 settings with their parameters, or write the generated "
+        "taxonomy document (settings, parameters, applicability rules, case counts per suite).",
+    )
     p.add_argument("--category", help="only this category's settings")
     p.add_argument("--json", action="store_true", help="print the settings as JSON")
     p.add_argument("--doc", type=Path, metavar="FILE", help="write the Markdown taxonomy document to FILE")

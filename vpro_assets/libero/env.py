@@ -1,12 +1,13 @@
 """Headless LIBERO environments for base tasks, with both cameras at a chosen resolution."""
+
 from __future__ import annotations
 
 import atexit
 import importlib
 import logging
 import weakref
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Iterator
 
 import numpy as np
 
@@ -22,8 +23,9 @@ DEFAULT_RESOLUTION = 256
 NOOP_ACTION = np.array([0, 0, 0, 0, 0, 0, -1], dtype=np.float64)
 
 
-def make_env(task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, bddl_file: str | None = None,
-             render: bool = True, **kwargs):
+def make_env(
+    task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, bddl_file: str | None = None, render: bool = True, **kwargs
+):
     """LIBERO's own `OffScreenRenderEnv` for a task (or another BDDL file of the same task).
 
     `render=False`: LIBERO's `ControlEnv` without an offscreen renderer or camera observations,
@@ -35,8 +37,14 @@ def make_env(task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, bddl_file: 
     if not render:
         log.info("building %s (%s) without rendering", task.key, bddl)
         control_env = importlib.import_module("libero.libero.envs.env_wrapper").ControlEnv
-        return control_env(bddl_file_name=bddl, has_renderer=False, has_offscreen_renderer=False,
-                           use_camera_obs=False, camera_names=list(CAMERAS), **kwargs)
+        return control_env(
+            bddl_file_name=bddl,
+            has_renderer=False,
+            has_offscreen_renderer=False,
+            use_camera_obs=False,
+            camera_names=list(CAMERAS),
+            **kwargs,
+        )
     log.info("building %s (%s) at %dx%d", task.key, bddl, resolution, resolution)
     env = envs.OffScreenRenderEnv(
         bddl_file_name=bddl, camera_heights=resolution, camera_widths=resolution, camera_names=list(CAMERAS), **kwargs
@@ -45,7 +53,7 @@ def make_env(task: TaskRecord, resolution: int = DEFAULT_RESOLUTION, bddl_file: 
     return env
 
 
-_LIVE_ENVS: "weakref.WeakSet" = weakref.WeakSet()
+_LIVE_ENVS: weakref.WeakSet = weakref.WeakSet()
 
 
 def _track_render_context(env) -> None:

@@ -5,6 +5,7 @@ create a context then fails much later, deep inside the first render. We probe e
 a child process (a failed EGL/OSMesa initialisation can abort the interpreter) and keep the first
 that renders.
 """
+
 from __future__ import annotations
 
 import logging

@@ -4,6 +4,7 @@ A `.pruned_init` file is a torch zip archive around one pickled numpy array (row
 time, qpos, qvel). Its `data.pkl` unpickles with the standard library once torch's tensor hook
 (persistent ids) is refused, which only a file holding real tensors would need.
 """
+
 from __future__ import annotations
 
 import io

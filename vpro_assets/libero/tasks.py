@@ -3,13 +3,14 @@
 Everything the applicability rules need is read from the task's structure (objects, fixtures,
 goal predicates, articulation of the fixtures involved), never from its name or language.
 """
+
 from __future__ import annotations
 
 import functools
-from typing import Iterable
+from collections.abc import Iterable
 
-from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.core.errors import UnknownIdError
+from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.task_record import (  # noqa: F401 (re-exported)
     PLACEMENT_PREDICATES,
     Articulation,
@@ -31,7 +32,7 @@ def _resolve(arg: str, instances: Iterable[str]) -> tuple[str, str | None]:
     return best, (arg[len(best) + 1 :] or None)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _articulation_kinds() -> dict[str, str]:
     """LIBERO object category -> articulation kind, from LIBERO's object registry."""
     envs = libero_bridge.libero_envs()
@@ -54,7 +55,7 @@ def parse_task(suite: str, index: int, name: str) -> TaskRecord:
     fixtures = _flatten(parsed["fixtures"])
     movable = {inst for inst, _ in objects}
     instances = [inst for inst, _ in objects + fixtures]
-    goal = tuple(tuple([g[0].lower(), *g[1:]]) for g in parsed["goal_state"])
+    goal = tuple((g[0].lower(), *g[1:]) for g in parsed["goal_state"])
 
     target = receptacle = region = relation = None
     for pred, *args in goal:
@@ -94,7 +95,7 @@ def parse_task(suite: str, index: int, name: str) -> TaskRecord:
     )
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load_tasks() -> tuple[TaskRecord, ...]:
     """The 40 base tasks, suite by suite, in LIBERO's task order."""
     return tuple(

@@ -3,6 +3,7 @@
 Same folder, same bytes: entries sorted by path, every timestamp 0, owner root, modes 0644/0755,
 gzip header without file name or time. Extraction refuses absolute paths, `..` and links.
 """
+
 from __future__ import annotations
 
 import gzip

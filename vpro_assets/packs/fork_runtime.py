@@ -37,6 +37,7 @@ LIBERO's, except that `register` extracts an archive beside it. The task's probl
 absolute path of the pack's suite folder, which `os.path.join` and `pathlib` both let replace the
 fork's `bddl_files` root.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -93,8 +94,10 @@ def read_manifest(pack: Path) -> dict:
         raise PackRegistrationError(f"{pack / MANIFEST}: unreadable ({exc})") from None
     version = manifest.get("schema_version") if isinstance(manifest, dict) else None
     if not isinstance(version, int) or version > SUPPORTED_SCHEMA:
-        raise PackRegistrationError(f"{pack}: pack schema_version {version!r}; this module reads up to "
-                                    f"{SUPPORTED_SCHEMA}, use the vpro_libero_fork.py shipped in the pack")
+        raise PackRegistrationError(
+            f"{pack}: pack schema_version {version!r}; this module reads up to "
+            f"{SUPPORTED_SCHEMA}, use the vpro_libero_fork.py shipped in the pack"
+        )
     return manifest
 
 
@@ -133,23 +136,41 @@ def _object_class(name: str, xml: Path, spec: dict, pack_id: str, placement: dic
         # LIBERO builds fixtures with joints=None (no joint) and objects with the default free joint.
         if isinstance(joints, str) and joints == "default":
             joints = [{"type": "free", "damping": "0.0005"}]
-        MujocoXMLObject.__init__(self, str(xml), name=name, joints=joints, obj_type="all",
-                                 duplicate_collision_geoms=False)
+        MujocoXMLObject.__init__(
+            self, str(xml), name=name, joints=joints, obj_type="all", duplicate_collision_geoms=False
+        )
         self.category_name = type(self).registered_name
         for key, value in placement.items():
             setattr(self, key, copy.deepcopy(value))
 
     class_name = "VproPack" + "".join(p.capitalize() for p in name.split("_"))
-    return type(class_name, (MujocoXMLObject,), {"__init__": __init__, "registered_name": name,
-                                                 "xml_path": str(xml), "_vpro_pack_object": (pack_id, spec["sha256"])})
+    return type(
+        class_name,
+        (MujocoXMLObject,),
+        {
+            "__init__": __init__,
+            "registered_name": name,
+            "xml_path": str(xml),
+            "_vpro_pack_object": (pack_id, spec["sha256"]),
+        },
+    )
 
 
 def _suite_class(suite: str, tasks: list[dict], pack: Path, pack_id: str):
     from libero.libero.benchmark import Benchmark, Task
 
     bddl_dir, init_dir = pack / "bddl_files" / suite, pack / "init_files" / suite
-    entries = [Task(name=t["name"], language=t["language"], problem="Libero", problem_folder=str(bddl_dir),
-                    bddl_file=f"{t['name']}.bddl", init_states_file=f"{t['name']}.pruned_init") for t in tasks]
+    entries = [
+        Task(
+            name=t["name"],
+            language=t["language"],
+            problem="Libero",
+            problem_folder=str(bddl_dir),
+            bddl_file=f"{t['name']}.bddl",
+            init_states_file=f"{t['name']}.pruned_init",
+        )
+        for t in tasks
+    ]
 
     def __init__(self, task_order_index=0):
         Benchmark.__init__(self, task_order_index=task_order_index)
@@ -165,9 +186,17 @@ def _suite_class(suite: str, tasks: list[dict], pack: Path, pack_id: str):
 
         return torch.load(os.path.join(init_dir, self.tasks[i].init_states_file), weights_only=False)
 
-    return type(suite.upper(), (Benchmark,), {"__init__": __init__, "_make_benchmark": _make_benchmark,
-                                             "get_task_init_states": get_task_init_states,
-                                             "_vpro_pack_id": pack_id, "__doc__": f"LIBERO-VPro pack suite {suite}"})
+    return type(
+        suite.upper(),
+        (Benchmark,),
+        {
+            "__init__": __init__,
+            "_make_benchmark": _make_benchmark,
+            "get_task_init_states": get_task_init_states,
+            "_vpro_pack_id": pack_id,
+            "__doc__": f"LIBERO-VPro pack suite {suite}",
+        },
+    )
 
 
 def register(pack: str | os.PathLike, verify: bool = True) -> dict[str, type]:
@@ -188,7 +217,9 @@ def register(pack: str | os.PathLike, verify: bool = True) -> dict[str, type]:
             clashes.append(f"object {name!r} varies {spec['template']!r}, which this LIBERO does not have")
         existing = OBJECTS_DICT.get(name)
         if existing is not None and getattr(existing, "_vpro_pack_object", (None, None))[1] != spec["sha256"]:
-            clashes.append(f"object {name!r} is already registered ({getattr(existing, 'xml_path', existing.__name__)})")
+            clashes.append(
+                f"object {name!r} is already registered ({getattr(existing, 'xml_path', existing.__name__)})"
+            )
     for suite in suites:
         existing = benchmark.BENCHMARK_MAPPING.get(suite.lower())
         if existing is not None and getattr(existing, "_vpro_pack_id", None) != pack_id:
@@ -200,8 +231,9 @@ def register(pack: str | os.PathLike, verify: bool = True) -> dict[str, type]:
     try:
         for name, spec in objects.items():
             if name not in OBJECTS_DICT:
-                OBJECTS_DICT[name] = _object_class(name, pack / spec["xml"], spec, pack_id,
-                                                   _placement(spec, OBJECTS_DICT))
+                OBJECTS_DICT[name] = _object_class(
+                    name, pack / spec["xml"], spec, pack_id, _placement(spec, OBJECTS_DICT)
+                )
                 added_objects.append(name)
         classes = {}
         for suite, tasks in suites.items():
@@ -271,8 +303,10 @@ class ForkEnv:
         self.case = load_case(case)
         case_id = self.case.get("id", "<case>")
         if self.case.get("level") != "observation":
-            raise InvalidParameterError(f"case {case_id}: level {self.case.get('level')!r}, it changes the scene: build "
-                                        "its env from the pack's BDDL instead of wrapping the base task's env")
+            raise InvalidParameterError(
+                f"case {case_id}: level {self.case.get('level')!r}, it changes the scene: build "
+                "its env from the pack's BDDL instead of wrapping the base task's env"
+            )
         if "task_record" not in self.case:
             raise InvalidParameterError(f"case {case_id}: no task_record; pass the pack's case JSON or its id")
         self.task = TaskRecord.from_json(self.case["task_record"])

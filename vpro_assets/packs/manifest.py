@@ -4,6 +4,7 @@
 relative POSIX path; verification recomputes the hashes and names each missing, extra or changed
 file.
 """
+
 from __future__ import annotations
 
 import json
@@ -48,11 +49,15 @@ def read_manifest(root: Path) -> dict:
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise PackError(f"{path}: unreadable manifest ({exc})") from None
     if not isinstance(data, dict) or data.get("pack_format") != PACK_FORMAT:
-        raise PackError(f"{path}: not a LIBERO-VPro pack manifest (pack_format {data.get('pack_format') if isinstance(data, dict) else None!r})")
+        raise PackError(
+            f"{path}: not a LIBERO-VPro pack manifest (pack_format {data.get('pack_format') if isinstance(data, dict) else None!r})"
+        )
     version = data.get("schema_version")
     if not isinstance(version, int) or version > PACK_SCHEMA_VERSION:
-        raise PackError(f"{path}: pack schema_version {version!r} is newer than this toolkit reads "
-                        f"({PACK_SCHEMA_VERSION}); upgrade libero-vpro")
+        raise PackError(
+            f"{path}: pack schema_version {version!r} is newer than this toolkit reads "
+            f"({PACK_SCHEMA_VERSION}); upgrade libero-vpro"
+        )
     if not isinstance(data.get("files"), dict):
         raise PackError(f"{path}: manifest has no 'files' table")
     return data
@@ -68,8 +73,11 @@ class Mismatch:
         return bool(self.missing or self.extra or self.changed)
 
     def lines(self) -> list[str]:
-        return ([f"missing: {p}" for p in self.missing] + [f"extra: {p}" for p in self.extra]
-                + [f"changed: {p}" for p in self.changed])
+        return (
+            [f"missing: {p}" for p in self.missing]
+            + [f"extra: {p}" for p in self.extra]
+            + [f"changed: {p}" for p in self.changed]
+        )
 
 
 def compare(manifest: dict, root: Path) -> Mismatch:

@@ -12,6 +12,7 @@ fork's env is used as it was built.
         ...
         obs, reward, done, info = env.step(action)
 """
+
 from __future__ import annotations
 
 import os

@@ -16,6 +16,7 @@ One suite per category, named `vpro_<category>`; a case's task name is `<task>__
 Observation-level cases carry the base task's BDDL and LIBERO's initial states unchanged, and their
 task record; the perturbation is applied at run time by `vpro_libero_fork.wrap(env, case)`.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -67,26 +68,40 @@ def _case_sources(case: dict) -> dict:
     """Source files of a case: its BDDL, its initial states and any generated objects."""
     if case["level"] == SCENE:
         return _scene_sources(case)
-    return {"bddl": libero_bridge.bddl_path(case["suite"], case["task_name"]),
-            "init_states": libero_bridge.init_state_path(case["suite"], case["task_name"]), "objects": []}
+    return {
+        "bddl": libero_bridge.bddl_path(case["suite"], case["task_name"]),
+        "init_states": libero_bridge.init_state_path(case["suite"], case["task_name"]),
+        "objects": [],
+    }
 
 
 def _scene_sources(case: dict) -> dict:
     """Files of a built scene case, read from its build record (nothing is registered or built)."""
     meta_path = paths.scene_case_dir(case["id"]) / paths.SCENE_META
     if not meta_path.is_file():
-        raise PackError(f"case {case['id']} changes the scene and its artifacts are not built; "
-                        f"run `vpro build --select {case['id']}` first")
+        raise PackError(
+            f"case {case['id']} changes the scene and its artifacts are not built; "
+            f"run `vpro build --select {case['id']}` first"
+        )
     meta = json.loads(meta_path.read_text())
     files = meta["files"]
     objects = []
     for name, info in sorted(meta.get("generated_objects", {}).items()):
         xml = paths.objects_root() / name / f"{name}.xml"
-        objects.append({"name": name, "dir": paths.objects_root() / name, "xml": f"{name}.xml",
-                        "template": info.get("template"), "sha256": content_sha256(xml)})
-    return {"bddl": paths.scene_case_dir(case["id"]) / next(f for f in files if f.endswith(".bddl")),
-            "init_states": paths.scene_case_dir(case["id"]) / next(f for f in files if f.endswith(".pruned_init")),
-            "objects": objects}
+        objects.append(
+            {
+                "name": name,
+                "dir": paths.objects_root() / name,
+                "xml": f"{name}.xml",
+                "template": info.get("template"),
+                "sha256": content_sha256(xml),
+            }
+        )
+    return {
+        "bddl": paths.scene_case_dir(case["id"]) / next(f for f in files if f.endswith(".bddl")),
+        "init_states": paths.scene_case_dir(case["id"]) / next(f for f in files if f.endswith(".pruned_init")),
+        "objects": objects,
+    }
 
 
 def _copy_object(obj: dict, assets: Path) -> None:
@@ -103,8 +118,12 @@ def _copy(src: Path, dest: Path) -> None:
 
 
 def _check_no_absolute_paths(root: Path) -> None:
-    forbidden = {str(paths.REPO_ROOT), str(libero_bridge.libero_root()), str(libero_bridge.assets_root()),
-                 str(Path.home())}
+    forbidden = {
+        str(paths.REPO_ROOT),
+        str(libero_bridge.libero_root()),
+        str(libero_bridge.assets_root()),
+        str(Path.home()),
+    }
     for path in root.rglob("*"):
         if path.suffix in (".xml", ".bddl", ".json", ".urdf", ".usda", ".md", ".mtl", ".obj"):
             text = path.read_text(encoding="utf-8", errors="replace")
@@ -125,15 +144,25 @@ def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> Non
             if obj["name"] not in objects:
                 _copy_object(obj, root / "assets")
                 objects[obj["name"]] = {k: v for k, v in obj.items() if k != "dir"} | {
-                    "xml": f"assets/{obj['name']}/{obj['xml']}"}
+                    "xml": f"assets/{obj['name']}/{obj['xml']}"
+                }
         language = libero_instruction(case["task_name"])
-        spec = dict(with_task_record(case, catalog), pack={"suite": suite, "name": name, "instruction": language,
-                                "bddl": f"bddl_files/{suite}/{name}.bddl",
-                                "init_states": f"init_files/{suite}/{name}.pruned_init"})
+        spec = dict(
+            with_task_record(case, catalog),
+            pack={
+                "suite": suite,
+                "name": name,
+                "instruction": language,
+                "bddl": f"bddl_files/{suite}/{name}.bddl",
+                "init_states": f"init_files/{suite}/{name}.pruned_init",
+            },
+        )
         (root / "cases" / suite).mkdir(parents=True, exist_ok=True)
         (root / "cases" / suite / f"{name}.json").write_text(canonical_json(spec))
         suites.setdefault(suite, []).append({"name": name, "language": language, "case": case["id"]})
-    (root / "taxonomy.json").write_text(canonical_json({k: catalog[k] for k in ("dimensions", "categories", "settings")}))
+    (root / "taxonomy.json").write_text(
+        canonical_json({k: catalog[k] for k in ("dimensions", "categories", "settings")})
+    )
     vendor.write_runtime(root)
     (root / "README.md").write_text(README.format(suites=", ".join(f"`{s}`" for s in sorted(suites))))
     _check_no_absolute_paths(root)

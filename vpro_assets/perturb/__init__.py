@@ -34,10 +34,21 @@ random draw comes from `seeding.rng(case_id, trial, component)`; the physics is 
 scene the env drew; contradictions edit one camera's `MjvScene` only);
 staleness, view unavailability, corruption and prediction feedback render nothing extra.
 """
-from vpro_assets.perturb.pipeline import FAMILIES, ObservationPipeline, build_pipeline, register
+
 from vpro_assets.perturb.observer import CaseObserver, wrap_case_env
+from vpro_assets.perturb.pipeline import FAMILIES, ObservationPipeline, build_pipeline, register
 from vpro_assets.perturb.prediction import EchoPredictor, FramePredictingPolicy, PolicyOutput
 from vpro_assets.perturb.wrapper import PerturbedEnv
 
-__all__ = ["CaseObserver", "wrap_case_env", "FAMILIES", "ObservationPipeline", "build_pipeline", "register", "PerturbedEnv", "PolicyOutput",
-           "FramePredictingPolicy", "EchoPredictor"]
+__all__ = [
+    "CaseObserver",
+    "wrap_case_env",
+    "FAMILIES",
+    "ObservationPipeline",
+    "build_pipeline",
+    "register",
+    "PerturbedEnv",
+    "PolicyOutput",
+    "FramePredictingPolicy",
+    "EchoPredictor",
+]

@@ -7,19 +7,20 @@ its state in itself, clears it in `reset`, draws randomness only from `Episode.r
 touches the simulator's physical state: it reads the sim, and scene edits only change what one
 camera draws (`render_edits`).
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
 
 import numpy as np
 
 from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.core.seeding import rng
 from vpro_assets.libero.task_record import TaskRecord
+from vpro_assets.perturb.capture import Capture, CaptureRenderer, windows_may_meet
 from vpro_assets.perturb.entities import EntityIndex
 from vpro_assets.perturb.phases import PhaseState
-from vpro_assets.perturb.capture import Capture, CaptureRenderer, windows_may_meet
 from vpro_assets.perturb.rendering import SceneEdit, render_context, render_geom_ids
 
 
@@ -45,9 +46,15 @@ class MaskSource:
     (outside their schedule) cost nothing.
     """
 
-    def __init__(self, sim, entities: EntityIndex, shapes: Mapping[str, tuple[int, int]],
-                 captures: Mapping[str, Capture] | None = None, renderer: CaptureRenderer | None = None,
-                 captured_labels: frozenset[str] = frozenset()):
+    def __init__(
+        self,
+        sim,
+        entities: EntityIndex,
+        shapes: Mapping[str, tuple[int, int]],
+        captures: Mapping[str, Capture] | None = None,
+        renderer: CaptureRenderer | None = None,
+        captured_labels: frozenset[str] = frozenset(),
+    ):
         self.sim, self.entities, self.shapes = sim, entities, shapes
         self.captures = dict(captures or {})
         self.renderer = renderer
@@ -69,8 +76,12 @@ class MaskSource:
 
     def _ids_for(self, camera: str, label: str) -> np.ndarray:
         cap = self.captures.get(camera)
-        usable = (cap is not None and self.renderer is not None and label in self.captured_labels
-                  and (cap.height, cap.width) == tuple(self.shapes[camera]))
+        usable = (
+            cap is not None
+            and self.renderer is not None
+            and label in self.captured_labels
+            and (cap.height, cap.width) == tuple(self.shapes[camera])
+        )
         if not usable or cap is None or self.renderer is None:  # (the last two for the type checker)
             return self.geom_ids(camera)
         if camera not in self._captured_ids:
@@ -82,8 +93,13 @@ class MaskSource:
         """False only when the captured windows of entities `a` and `b` prove that no pixel lies
         within `radius` of both (their contact region is empty); True when unknown."""
         cap = self.captures.get(camera)
-        if (cap is None or cap.label_windows is None or a not in cap.label_windows or b not in cap.label_windows
-                or (cap.height, cap.width) != tuple(self.shapes[camera])):
+        if (
+            cap is None
+            or cap.label_windows is None
+            or a not in cap.label_windows
+            or b not in cap.label_windows
+            or (cap.height, cap.width) != tuple(self.shapes[camera])
+        ):
             return True
         return windows_may_meet(cap.label_windows[a], cap.label_windows[b], radius)
 
@@ -155,5 +171,7 @@ def param(case_id: str, params: Mapping, name: str, kinds, check: Callable | Non
     if not isinstance(value, allowed) or (isinstance(value, bool) and bool not in allowed):
         raise InvalidParameterError(f"case {case_id}: parameter {name}={value!r} has the wrong type")
     if check is not None and not check(value):
-        raise InvalidParameterError(f"case {case_id}: parameter {name}={value!r} is invalid{': ' + what if what else ''}")
+        raise InvalidParameterError(
+            f"case {case_id}: parameter {name}={value!r} is invalid{': ' + what if what else ''}"
+        )
     return value

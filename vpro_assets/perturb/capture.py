@@ -20,6 +20,7 @@ with 4x multisampling; the resolved depth is the depth at one sub-pixel sample (
 silhouettes and contacts the two disagree: over 240 frames of libero_spatial-00 the depth test
 matched the segmentation with IoU 0.98 at the median and 0.90 at worst (docs/perturbations.md).
 """
+
 from __future__ import annotations
 
 import warnings
@@ -32,8 +33,18 @@ from scipy.spatial import ConvexHull, QhullError
 from vpro_assets.perturb import scene_edits
 
 _GEOM = int(mujoco.mjtObj.mjOBJ_GEOM)
-_CAMERA_FIELDS = ("pos", "forward", "up", "frustum_center", "frustum_width", "frustum_bottom", "frustum_top",
-                  "frustum_near", "frustum_far", "orthographic")
+_CAMERA_FIELDS = (
+    "pos",
+    "forward",
+    "up",
+    "frustum_center",
+    "frustum_width",
+    "frustum_bottom",
+    "frustum_top",
+    "frustum_near",
+    "frustum_far",
+    "orthographic",
+)
 
 
 @dataclass
@@ -51,12 +62,18 @@ class Capture:
 
     def key(self) -> bytes:
         """Everything the segmentation render depends on: equal keys draw equal pixels."""
-        parts = [np.array([self.camera_id, self.width, self.height, *(self.window or (-1,) * 4)], dtype=np.int64).tobytes()]
+        parts = [
+            np.array([self.camera_id, self.width, self.height, *(self.window or (-1,) * 4)], dtype=np.int64).tobytes()
+        ]
         for cam in self.cameras:
             parts += [np.asarray(v, dtype=np.float64).tobytes() for v in cam.values()]
         for e in self.entries:
-            parts += [e["pos"].tobytes(), e["mat"].tobytes(), e["size"].tobytes(),
-                      np.array([e["type"], e["dataid"], e["segid"], e["objtype"], e["objid"]], dtype=np.int64).tobytes()]
+            parts += [
+                e["pos"].tobytes(),
+                e["mat"].tobytes(),
+                e["size"].tobytes(),
+                np.array([e["type"], e["dataid"], e["segid"], e["objtype"], e["objid"]], dtype=np.int64).tobytes(),
+            ]
         return b"".join(parts)
 
 
@@ -95,8 +112,15 @@ def _image_boxes(model, data, geoms: np.ndarray, camera_id: int, near: float):
     in_front = front.any(axis=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: geoms wholly behind the camera
-        return (np.nanmin(us, 1), np.nanmax(us, 1), np.nanmin(vs, 1), np.nanmax(vs, 1),
-                np.nanmin(zs, 1), np.nanmax(zs, 1), in_front)
+        return (
+            np.nanmin(us, 1),
+            np.nanmax(us, 1),
+            np.nanmin(vs, 1),
+            np.nanmax(vs, 1),
+            np.nanmin(zs, 1),
+            np.nanmax(zs, 1),
+            in_front,
+        )
 
 
 class GeomHulls:
@@ -124,7 +148,7 @@ class GeomHulls:
         key = (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, mesh) or str(mesh), int(model.mesh_vertnum[mesh]))
         if key not in self._mesh:
             adr, n = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-            verts = np.asarray(model.mesh_vert[adr:adr + n], dtype=np.float64)
+            verts = np.asarray(model.mesh_vert[adr : adr + n], dtype=np.float64)
             try:
                 self._mesh[key] = verts[ConvexHull(verts).vertices]
             except QhullError:  # flat or degenerate: its box still bounds it
@@ -162,7 +186,7 @@ class View:
     height: int
 
     @classmethod
-    def of(cls, cam: dict, width: int, height: int) -> "View":
+    def of(cls, cam: dict, width: int, height: int) -> View:
         b, t = cam["frustum_bottom"], cam["frustum_top"]
         hw = cam["frustum_width"] or 0.5 * width / height * (t - b)  # as mjr_render's setView
         c = cam["frustum_center"]
@@ -179,8 +203,16 @@ class View:
         return (x0, y0, x1, y1) if x0 < x1 and y0 < y1 else None
 
 
-def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candidates: np.ndarray, view: View,
-                   hulls: GeomHulls, groups: dict[str, np.ndarray] | None = None):
+def relevant_geoms(
+    model,
+    data,
+    camera_id: int,
+    entity_geoms: np.ndarray,
+    candidates: np.ndarray,
+    view: View,
+    hulls: GeomHulls,
+    groups: dict[str, np.ndarray] | None = None,
+):
     """Boolean per model geom: an entity geom, or one of `candidates` (the geoms the scene may
     draw) that can cover one in this camera (its projected bounds overlap the entities' footprint
     and it is not wholly behind them; planes always), and the pixel window of the footprint (None:
@@ -188,7 +220,7 @@ def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candid
     (label -> geoms) on its own."""
     out = np.zeros(model.ngeom, dtype=bool)
     groups = groups or {}
-    none = {label: None for label in groups}
+    none = dict.fromkeys(groups)
     entity_geoms = np.intersect1d(entity_geoms, candidates)  # geoms the scene does not draw leave no pixel
     if not len(entity_geoms):
         return out, None, none
@@ -210,7 +242,9 @@ def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candid
     label_windows = {}
     for label, members in groups.items():
         g = e & np.isin(geoms, members)
-        label_windows[label] = view.pixel_window(u0[g].min(), u1[g].max(), v0[g].min(), v1[g].max()) if g.any() else None
+        label_windows[label] = (
+            view.pixel_window(u0[g].min(), u1[g].max(), v0[g].min(), v1[g].max()) if g.any() else None
+        )
     if window is None:
         return out, None, none
     # the window back on the image plane: what lies outside it cannot draw on the entities' pixels
@@ -228,19 +262,39 @@ def relevant_geoms(model, data, camera_id: int, entity_geoms: np.ndarray, candid
     return out, window, label_windows
 
 
-def capture(ctx, model, data, camera_id: int, width: int, height: int, entity_geoms: np.ndarray,
-            generation: int, candidates: np.ndarray | None = None, hulls: GeomHulls | None = None,
-            groups: dict[str, np.ndarray] | None = None) -> Capture:
+def capture(
+    ctx,
+    model,
+    data,
+    camera_id: int,
+    width: int,
+    height: int,
+    entity_geoms: np.ndarray,
+    generation: int,
+    candidates: np.ndarray | None = None,
+    hulls: GeomHulls | None = None,
+    groups: dict[str, np.ndarray] | None = None,
+) -> Capture:
     """Copy, from the scene the env just drew (`ctx.scn`), the entries of the entities and of the
     geoms that can cover them, plus every non-geom entry (few; they may cover anything), and the
     pixel window the entities can occupy."""
     scn = ctx.scn
-    cams = tuple({f: (getattr(c, f).copy() if isinstance(getattr(c, f), np.ndarray) else getattr(c, f))
-                  for f in _CAMERA_FIELDS} for c in (scn.camera[0], scn.camera[1]))
+    cams = tuple(
+        {f: (getattr(c, f).copy() if isinstance(getattr(c, f), np.ndarray) else getattr(c, f)) for f in _CAMERA_FIELDS}
+        for c in (scn.camera[0], scn.camera[1])
+    )
     if candidates is None:
         candidates = drawable_geoms(model, ctx.vopt)
-    keep, window, label_windows = relevant_geoms(model, data, camera_id, np.asarray(entity_geoms), candidates,
-                                                 View.of(cams[0], width, height), hulls or GeomHulls(), groups)
+    keep, window, label_windows = relevant_geoms(
+        model,
+        data,
+        camera_id,
+        np.asarray(entity_geoms),
+        candidates,
+        View.of(cams[0], width, height),
+        hulls or GeomHulls(),
+        groups,
+    )
     entries = []
     if window is not None:
         for i in range(scn.ngeom):
@@ -334,5 +388,9 @@ def windows_may_meet(a: tuple[int, int, int, int] | None, b: tuple[int, int, int
     region of two entities inside them is empty without drawing them)."""
     if a is None or b is None:
         return False
-    return (a[0] - radius < b[2] + radius and b[0] - radius < a[2] + radius
-            and a[1] - radius < b[3] + radius and b[1] - radius < a[3] + radius)
+    return (
+        a[0] - radius < b[2] + radius
+        and b[0] - radius < a[2] + radius
+        and a[1] - radius < b[3] + radius
+        and b[1] - radius < a[3] + radius
+    )

@@ -6,14 +6,15 @@ phase tracker places in the named phase). Noise is Gaussian with `noise_std` (ui
 rounded and clipped; its field for (trial, camera, step) comes from its own seed, so it is
 reproducible and independent of the frame, of the policy and of which other steps were corrupted.
 """
+
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
-from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.benchmark.taxonomy import PHASES
+from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.perturb.base import Episode, Perturbation, Step, param
 from vpro_assets.perturb.imageops import add_noise, blackout
 from vpro_assets.perturb.masking import _cameras

@@ -6,6 +6,7 @@ hand and fingers). Geom ids are split into visual geoms (what cameras draw) and 
 (what makes contacts). Ids change when robosuite rebuilds the sim on a hard reset, so an
 `EntityIndex` is built for one sim and rebuilt after each reset.
 """
+
 from __future__ import annotations
 
 import re
@@ -66,9 +67,12 @@ def object_entity(m, instance: str) -> Entity:
 
 
 def gripper_entity(m) -> Entity:
-    roots = [b for b in range(m.nbody)
-             if _name(m, mujoco.mjtObj.mjOBJ_BODY, b).startswith(GRIPPER_PREFIX)
-             and not _name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.body_parentid[b])).startswith(GRIPPER_PREFIX)]
+    roots = [
+        b
+        for b in range(m.nbody)
+        if _name(m, mujoco.mjtObj.mjOBJ_BODY, b).startswith(GRIPPER_PREFIX)
+        and not _name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.body_parentid[b])).startswith(GRIPPER_PREFIX)
+    ]
     if not roots:
         raise VProError(f"no gripper bodies ({GRIPPER_PREFIX}*) in the simulation")
     return _entity(m, "gripper", roots)
@@ -106,13 +110,19 @@ class EntityIndex:
         """(joint id, lower, upper) of the hinge/slide joints of the articulated fixtures the goal
         involves; where the goal names a level (top/middle/bottom) only that level's joints."""
         m = self.model
-        words = {w for pred in self.task.goal for arg in pred[1:] for w in REGION_WORDS if re.search(rf"_{w}_", arg + "_")}
+        words = {
+            w for pred in self.task.goal for arg in pred[1:] for w in REGION_WORDS if re.search(rf"_{w}_", arg + "_")
+        }
         if self.task.receptacle_region:
             words |= {w for w in REGION_WORDS if w in self.task.receptacle_region}
         out = []
         for ent in self.articulations:
-            joints = [j for j in range(m.njnt) if m.jnt_bodyid[j] in ent.bodies
-                      and m.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)]
+            joints = [
+                j
+                for j in range(m.njnt)
+                if m.jnt_bodyid[j] in ent.bodies
+                and m.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
+            ]
             named = [j for j in joints if any(w in _name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for w in words)]
             for j in named or joints:
                 lo, hi = m.jnt_range[j]

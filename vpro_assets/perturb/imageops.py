@@ -3,6 +3,7 @@
 Every function takes and returns numpy arrays and never modifies its inputs, so the same clean
 frame can feed several perturbations and the property tests can run on synthetic frames.
 """
+
 from __future__ import annotations
 
 import cv2
@@ -31,7 +32,7 @@ def partial_mask(mask: np.ndarray, ratio: float, angle: float) -> np.ndarray:
 
 def disk(radius: int) -> np.ndarray:
     """Structuring element: the pixel offsets at Euclidean distance <= radius."""
-    yy, xx = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    yy, xx = np.mgrid[-radius : radius + 1, -radius : radius + 1]
     return (yy * yy + xx * xx <= radius * radius).astype(np.uint8)
 
 

@@ -12,15 +12,15 @@ target), or the placement contact region (pixels within `dilation_px` of both th
 the receptacle). `dilation_px` is stated at 256 px and scaled with the frame height. A contact
 region is empty, and nothing is covered, while the two entities do not meet in the image.
 """
+
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
+from vpro_assets.benchmark.taxonomy import MASK_SCHEDULES, VIEWS
 from vpro_assets.core.errors import InvalidParameterError
-from vpro_assets.benchmark.taxonomy import MASK_SCHEDULES
-from vpro_assets.benchmark.taxonomy import VIEWS
 from vpro_assets.perturb.base import Episode, Perturbation, Step, param
 from vpro_assets.perturb.imageops import meeting_region, occlude, partial_mask, scaled_px
 from vpro_assets.perturb.schedules import mask_active
@@ -47,8 +47,9 @@ class EntityMasking(Perturbation):
         self.case_id = case_id
         self.entity = param(case_id, params, "entity", str, lambda v: v in ("target", "receptacle"))
         self.ratio = float(param(case_id, params, "ratio", (int, float), lambda v: 0 < v <= 1, "in (0, 1]"))
-        self.schedule = param(case_id, params, "schedule", str, lambda v: v in MASK_SCHEDULES,
-                              f"one of {', '.join(MASK_SCHEDULES)}")
+        self.schedule = param(
+            case_id, params, "schedule", str, lambda v: v in MASK_SCHEDULES, f"one of {', '.join(MASK_SCHEDULES)}"
+        )
         self.gray = _gray(case_id, params)
         self.camera_names = _cameras(case_id, params.get("views", "both"))
         self.mask_labels = (self.entity,)
@@ -82,14 +83,19 @@ class CueMasking(Perturbation):
         ratio = param(case_id, params, "ratio", (int, float))
         schedule = param(case_id, params, "schedule", str)
         if ratio != 1.0 or schedule != "always":
-            raise InvalidParameterError(f"case {case_id}: interaction-cue masking covers the whole region on "
-                                        f"every step (ratio 1.0, schedule 'always'), got ratio={ratio!r} "
-                                        f"schedule={schedule!r}")
+            raise InvalidParameterError(
+                f"case {case_id}: interaction-cue masking covers the whole region on "
+                f"every step (ratio 1.0, schedule 'always'), got ratio={ratio!r} "
+                f"schedule={schedule!r}"
+            )
         self.dilation_px = param(case_id, params, "dilation_px", int, lambda v: 0 <= v <= 64, "0..64 px")
         self.gray = _gray(case_id, params)
         self.camera_names = _cameras(case_id, params.get("views", "both"))
-        self.mask_labels = {"gripper": ("gripper",), "gripper_object_contact": ("gripper", "target"),
-                            "placement_contact": ("target", "receptacle")}[self.region]
+        self.mask_labels = {
+            "gripper": ("gripper",),
+            "gripper_object_contact": ("gripper", "target"),
+            "placement_contact": ("target", "receptacle"),
+        }[self.region]
         need = {"gripper_object_contact": "target", "placement_contact": "receptacle"}.get(self.region)
         if need and getattr(task, need) is None:
             raise InvalidParameterError(f"case {case_id}: task {task.key} has no {need} for the {self.region} region")

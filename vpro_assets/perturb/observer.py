@@ -15,10 +15,11 @@ the edited camera once for that observation (one extra frame per episode, none p
 A chunk of predicted frames is consumed one frame per following step; a single frame predicts
 the next observation.
 """
+
 from __future__ import annotations
 
 from collections import deque
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -30,8 +31,14 @@ from vpro_assets.perturb.rendering import render_rgb
 
 
 class CaseObserver:
-    def __init__(self, env, case: Mapping, trial: int, task: TaskRecord | None = None,
-                 pipeline: ObservationPipeline | None = None):
+    def __init__(
+        self,
+        env,
+        case: Mapping,
+        trial: int,
+        task: TaskRecord | None = None,
+        pipeline: ObservationPipeline | None = None,
+    ):
         if pipeline is None:
             if task is None:
                 raise InvalidParameterError(f"case {case.get('id')}: CaseObserver needs the case's task or a pipeline")
@@ -72,8 +79,10 @@ class CaseObserver:
             if arr.ndim == 3:
                 arr = arr[None]
             if arr.ndim != 4:
-                raise InvalidParameterError(f"case {self.pipeline.case_id}: predicted frames for {cam} must be "
-                                            f"(h, w, 3) or (H, h, w, 3), got shape {arr.shape}")
+                raise InvalidParameterError(
+                    f"case {self.pipeline.case_id}: predicted frames for {cam} must be "
+                    f"(h, w, 3) or (H, h, w, 3), got shape {arr.shape}"
+                )
             self._queue[cam] = deque(arr)
 
     def policy_images(self, obs: Mapping, step: int) -> dict:

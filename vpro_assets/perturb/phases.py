@@ -17,6 +17,7 @@ schedules such as "before grasp" have one well-defined boundary. Detection, per 
 
 Every step is logged; `timeline()` returns the (step, phase) changes and the two onsets.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -88,11 +89,15 @@ class PhaseTracker:
             obj_geoms = np.asarray(obj.geoms, np.int32)
             grip_geoms = np.asarray(ent.gripper.geoms, np.int32)
             touching = self._touch(g1, g2, grip_geoms, obj_geoms)
-            both = (self._touch(g1, g2, ent.left_finger_geoms, obj_geoms)
-                    and self._touch(g1, g2, ent.right_finger_geoms, obj_geoms))
+            both = self._touch(g1, g2, ent.left_finger_geoms, obj_geoms) and self._touch(
+                g1, g2, ent.right_finger_geoms, obj_geoms
+            )
             if self._phase == 0:
-                near = ent.grip_site >= 0 and np.min(np.linalg.norm(
-                    data.geom_xpos[obj_geoms] - data.site_xpos[ent.grip_site], axis=1)) < REACH_M
+                near = (
+                    ent.grip_site >= 0
+                    and np.min(np.linalg.norm(data.geom_xpos[obj_geoms] - data.site_xpos[ent.grip_site], axis=1))
+                    < REACH_M
+                )
                 if touching or near:
                     self._phase = 1
             grasped = both if ent.target is not None else touching
@@ -109,8 +114,10 @@ class PhaseTracker:
                     if self._phase == 2 and xy < PRE_PLACE_XY_M:
                         self._phase = 3
                     on = self._touch(g1, g2, obj_geoms, np.asarray(ent.receptacle.geoms, np.int32))
-                    released = not (self._touch(g1, g2, ent.left_finger_geoms, obj_geoms)
-                                    or self._touch(g1, g2, ent.right_finger_geoms, obj_geoms))
+                    released = not (
+                        self._touch(g1, g2, ent.left_finger_geoms, obj_geoms)
+                        or self._touch(g1, g2, ent.right_finger_geoms, obj_geoms)
+                    )
                     if self._phase == 3 and (on or released):
                         self._phase = 4
                         self.placement_onset = step
@@ -119,5 +126,9 @@ class PhaseTracker:
 
     def timeline(self) -> dict:
         changes = [(i, p) for i, p in enumerate(self.history) if i == 0 or self.history[i - 1] != p]
-        return {"changes": changes, "grasp_onset": self.grasp_onset, "placement_onset": self.placement_onset,
-                "steps": len(self.history)}
+        return {
+            "changes": changes,
+            "grasp_onset": self.grasp_onset,
+            "placement_onset": self.placement_onset,
+            "steps": len(self.history),
+        }

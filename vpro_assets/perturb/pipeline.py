@@ -7,17 +7,17 @@ and trial, clears all state, attaches to the freshly built sim), then `observe(r
 once per observation. The phase tracker runs on every observation, whatever the setting, so
 each episode can log its phase timeline.
 """
+
 from __future__ import annotations
 
 import logging
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from vpro_assets.benchmark import taxonomy as tx
+from vpro_assets.core.errors import InvalidParameterError, VProError
 from vpro_assets.libero.names import CAMERAS
-from vpro_assets.core.errors import InvalidParameterError
-from vpro_assets.core.errors import VProError
 from vpro_assets.libero.task_record import TaskRecord
 from vpro_assets.perturb.base import Builder, Episode, MaskSource, Perturbation, Step
 from vpro_assets.perturb.capture import CaptureRenderer
@@ -44,11 +44,16 @@ def register(category: str, builder: Builder) -> None:
     FAMILIES[category] = builder
 
 
-for _cat, _builder in (("target_object_masking", EntityMasking), ("target_receptacle_masking", EntityMasking),
-                       ("interaction_cue_masking", CueMasking), ("temporary_observation_corruption", Corruption),
-                       ("view_unavailability", ViewUnavailability), ("camera_staleness", Staleness),
-                       ("cross_view_contradiction", Contradiction),
-                       ("prediction_reality_divergence", PredictionFeedback)):
+for _cat, _builder in (
+    ("target_object_masking", EntityMasking),
+    ("target_receptacle_masking", EntityMasking),
+    ("interaction_cue_masking", CueMasking),
+    ("temporary_observation_corruption", Corruption),
+    ("view_unavailability", ViewUnavailability),
+    ("camera_staleness", Staleness),
+    ("cross_view_contradiction", Contradiction),
+    ("prediction_reality_divergence", PredictionFeedback),
+):
     register(_cat, _builder)
 
 
@@ -59,8 +64,14 @@ def image_key(camera: str) -> str:
 class ObservationPipeline:
     """Perturbations of one case, applied per camera to every observation of an episode."""
 
-    def __init__(self, case_id: str, task: TaskRecord, perturbations: Sequence[Perturbation],
-                 cameras: Sequence[str] = CAMERAS, setting_id: str | None = None):
+    def __init__(
+        self,
+        case_id: str,
+        task: TaskRecord,
+        perturbations: Sequence[Perturbation],
+        cameras: Sequence[str] = CAMERAS,
+        setting_id: str | None = None,
+    ):
         self.case_id, self.task, self.setting_id = case_id, task, setting_id
         self.perturbations = tuple(perturbations)
         self.all_cameras = tuple(cameras)
@@ -116,8 +127,11 @@ class ObservationPipeline:
             p.attach(sim, self.entities)
         if self.hook is not None:
             if self.mask_labels and self.capture_masks:
-                groups = {label: np.array(e.geoms, dtype=np.int64) for label in sorted(self.mask_labels)
-                          if (e := self.entities.entity(label)) is not None}
+                groups = {
+                    label: np.array(e.geoms, dtype=np.int64)
+                    for label in sorted(self.mask_labels)
+                    if (e := self.entities.entity(label)) is not None
+                }
                 self.hook.capture_groups = groups
                 self.hook.capture_geoms = np.unique(np.concatenate(list(groups.values()) or [np.zeros(0, np.int64)]))
                 self.capture_renderer = CaptureRenderer(sim.model._model)
@@ -129,8 +143,9 @@ class ObservationPipeline:
         if self.hook is not None:
             self.hook.uninstall()
 
-    def observe(self, raw_obs: Mapping[str, np.ndarray], sim,
-                predicted_frames: Mapping[str, np.ndarray] | None = None) -> dict:
+    def observe(
+        self, raw_obs: Mapping[str, np.ndarray], sim, predicted_frames: Mapping[str, np.ndarray] | None = None
+    ) -> dict:
         """The observation the policy receives for the raw observation of the current step."""
         if self.episode is None or self.tracker is None or self.entities is None:
             raise VProError(f"case {self.case_id}: call reset(trial, sim) before observe()")
@@ -159,8 +174,12 @@ class ObservationPipeline:
 
     def info(self) -> dict:
         """What happened at the last observation (for the episode log)."""
-        return {"step": self.step_index, "phase": self.tracker.phase if self.tracker else None,
-                "applied": self.last_notes, "cameras": list(self.available_cameras)}
+        return {
+            "step": self.step_index,
+            "phase": self.tracker.phase if self.tracker else None,
+            "applied": self.last_notes,
+            "cameras": list(self.available_cameras),
+        }
 
     def phase_timeline(self) -> dict:
         return self.tracker.timeline() if self.tracker else {}
@@ -179,8 +198,10 @@ def build_pipeline(case: Mapping | str, task: TaskRecord, cameras: Sequence[str]
     setting = tx.setting(setting_id)
     cat = tx.category(setting.category)
     if cat.level != tx.OBSERVATION:
-        raise VProError(f"case {case_id}: setting {setting_id} changes the scene ({cat.title}); it has no "
-                        "observation perturbation (build its scene instead)")
+        raise VProError(
+            f"case {case_id}: setting {setting_id} changes the scene ({cat.title}); it has no "
+            "observation perturbation (build its scene instead)"
+        )
     builder = FAMILIES.get(setting.category)
     if builder is None:
         raise VProError(f"case {case_id}: no perturbation family registered for {setting.category}")

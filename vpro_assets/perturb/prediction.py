@@ -13,10 +13,12 @@ are ignored.
 function and predicts, for every camera, the frame it observed with a step counter stamped into
 its first row, so a test can tell which prediction an observation came from.
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Callable, Mapping, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -43,18 +45,22 @@ class FramePredictingPolicy(Protocol):
     def __call__(self, obs: Mapping[str, np.ndarray]) -> PolicyOutput: ...
 
 
-def validate_predictions(case_id: str, predicted: Mapping[str, np.ndarray] | None,
-                         clean: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+def validate_predictions(
+    case_id: str, predicted: Mapping[str, np.ndarray] | None, clean: Mapping[str, np.ndarray]
+) -> dict[str, np.ndarray]:
     """Predicted frames checked against the cameras' frames (known camera, same shape, uint8)."""
     out = {}
     for cam, frame in (predicted or {}).items():
         if cam not in clean:
-            raise InvalidParameterError(f"case {case_id}: predicted frame for unknown camera {cam!r}; "
-                                        f"cameras are {', '.join(clean)}")
+            raise InvalidParameterError(
+                f"case {case_id}: predicted frame for unknown camera {cam!r}; cameras are {', '.join(clean)}"
+            )
         frame = np.asarray(frame)
         if frame.shape != clean[cam].shape or frame.dtype != np.uint8:
-            raise InvalidParameterError(f"case {case_id}: predicted frame for {cam} has shape {frame.shape} and "
-                                        f"dtype {frame.dtype}; expected {clean[cam].shape} uint8 (raw, bottom-up)")
+            raise InvalidParameterError(
+                f"case {case_id}: predicted frame for {cam} has shape {frame.shape} and "
+                f"dtype {frame.dtype}; expected {clean[cam].shape} uint8 (raw, bottom-up)"
+            )
         out[cam] = frame
     return out
 

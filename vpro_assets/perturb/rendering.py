@@ -16,11 +16,12 @@ the context on every hard reset, so the hook is installed again after each reset
 needed it also copies, from each camera's scene, the entries of the entities and of what can
 cover them (`capture.capture`).
 """
+
 from __future__ import annotations
 
 import logging
 import time
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 import mujoco
 import numpy as np
@@ -42,17 +43,21 @@ def render_context(sim):
 
 def _prepare(ctx, width: int, height: int, camera_id: int | None) -> mujoco.MjrRect:
     if width > ctx.con.offWidth or height > ctx.con.offHeight:
-        ctx.update_offscreen_size(max(width, ctx.model.vis.global_.offwidth), max(height, ctx.model.vis.global_.offheight))
+        ctx.update_offscreen_size(
+            max(width, ctx.model.vis.global_.offwidth), max(height, ctx.model.vis.global_.offheight)
+        )
     if camera_id is not None:
         ctx.cam.type = mujoco.mjtCamera.mjCAMERA_FREE if camera_id == -1 else mujoco.mjtCamera.mjCAMERA_FIXED
         ctx.cam.fixedcamid = camera_id
-    mujoco.mjv_updateScene(ctx.model._model, ctx.data._data, ctx.vopt, ctx.pert, ctx.cam,
-                           mujoco.mjtCatBit.mjCAT_ALL, ctx.scn)
+    mujoco.mjv_updateScene(
+        ctx.model._model, ctx.data._data, ctx.vopt, ctx.pert, ctx.cam, mujoco.mjtCatBit.mjCAT_ALL, ctx.scn
+    )
     return mujoco.MjrRect(0, 0, width, height)
 
 
-def draw(ctx, width: int, height: int, camera_id: int | None, edit: SceneEdit | None = None,
-         segmentation: bool = False) -> None:
+def draw(
+    ctx, width: int, height: int, camera_id: int | None, edit: SceneEdit | None = None, segmentation: bool = False
+) -> None:
     """Update the scene for a camera, apply `edit`, and draw into the offscreen buffer."""
     viewport = _prepare(ctx, width, height, camera_id)
     if edit is not None:
@@ -122,9 +127,19 @@ class RenderHook:
             draw(ctx, width, height, camera_id, self._timed(edit) if edit else None, segmentation)
             if self.capture_geoms is not None and not segmentation and camera_id is not None and camera_id >= 0:
                 t0 = time.perf_counter()
-                self._captures[self._names[camera_id]] = capture(ctx, model, data, camera_id, width, height,
-                                                                 self.capture_geoms, self.generation, drawable,
-                                                                 self._hulls, self.capture_groups)
+                self._captures[self._names[camera_id]] = capture(
+                    ctx,
+                    model,
+                    data,
+                    camera_id,
+                    width,
+                    height,
+                    self.capture_geoms,
+                    self.generation,
+                    drawable,
+                    self._hulls,
+                    self.capture_groups,
+                )
                 self.capture_seconds += time.perf_counter() - t0
 
         ctx.render = hooked_render  # instance attribute shadows the class method
@@ -143,6 +158,7 @@ class RenderHook:
                 edit(scn)
             finally:
                 self.edit_seconds += time.perf_counter() - t0
+
         return timed
 
     def uninstall(self) -> None:

@@ -5,16 +5,33 @@ and nothing else (the model, the data and the physics are untouched, the next `m
 rebuilds the list from the simulation). Operations: find the scene entries of some geoms, move or
 rotate them rigidly, remove them, and append copies (snapshots) of them.
 """
+
 from __future__ import annotations
 
-from typing import Iterable
+from collections.abc import Iterable
 
 import mujoco
 import numpy as np
 
 _ARRAY_FIELDS = ("size", "pos", "mat", "rgba")
-_SCALAR_FIELDS = ("type", "dataid", "objtype", "objid", "category", "matid", "texcoord", "segid", "emission",
-                  "specular", "shininess", "reflectance", "label", "transparent", "camdist", "modelrbound")
+_SCALAR_FIELDS = (
+    "type",
+    "dataid",
+    "objtype",
+    "objid",
+    "category",
+    "matid",
+    "texcoord",
+    "segid",
+    "emission",
+    "specular",
+    "shininess",
+    "reflectance",
+    "label",
+    "transparent",
+    "camdist",
+    "modelrbound",
+)
 _GEOM = int(mujoco.mjtObj.mjOBJ_GEOM)
 
 
@@ -34,7 +51,7 @@ def write(geom, snap: dict) -> None:
 
 def find(scn: mujoco.MjvScene, geom_ids: Iterable[int]) -> list[int]:
     """Scene indices of the entries drawing any of `geom_ids`."""
-    wanted = set(int(g) for g in geom_ids)
+    wanted = {int(g) for g in geom_ids}
     return [i for i in range(scn.ngeom) if scn.geoms[i].objtype == _GEOM and scn.geoms[i].objid in wanted]
 
 
@@ -61,8 +78,13 @@ def visual_center(scn: mujoco.MjvScene, indices: list[int], model: mujoco.MjMode
     return np.mean(centers, axis=0)
 
 
-def transform(scn: mujoco.MjvScene, indices: list[int], rotation: np.ndarray | None = None,
-              center: np.ndarray | None = None, offset: np.ndarray | None = None) -> None:
+def transform(
+    scn: mujoco.MjvScene,
+    indices: list[int],
+    rotation: np.ndarray | None = None,
+    center: np.ndarray | None = None,
+    offset: np.ndarray | None = None,
+) -> None:
     """Rigidly move entries: rotate by `rotation` about `center`, then translate by `offset`."""
     for i in indices:
         g = scn.geoms[i]

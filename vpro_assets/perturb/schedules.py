@@ -3,12 +3,13 @@
 Pure functions of the step index, the phase state and a seeded generator, tested on synthetic
 timelines. Step 0 is the observation at reset; each env step adds one.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.benchmark.taxonomy import MASK_SCHEDULES
+from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.perturb.phases import PLACED, PhaseState
 
 PLACEMENT_PHASES = ("pre_placement", PLACED)
@@ -52,8 +53,9 @@ class BurstSchedule:
         return step <= self._until
 
 
-def stale_source_step(mode: str, step: int, *, delay_steps: int = 0, freeze_step: int = 0,
-                      replay_start: int = 0, replay_window: int = 0) -> int:
+def stale_source_step(
+    mode: str, step: int, *, delay_steps: int = 0, freeze_step: int = 0, replay_start: int = 0, replay_window: int = 0
+) -> int:
     """The step whose clean frame a stale view shows at `step`.
 
     delay: step - delay (the first frame until `delay` steps have passed);

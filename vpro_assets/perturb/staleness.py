@@ -5,9 +5,10 @@ or replay a window of history). The view keeps only the clean frames it may stil
 stays bounded over long episodes. Nothing is rendered: the frames are the env's own renders.
 Before the delay has elapsed, a delayed view shows the first frame of the episode.
 """
+
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -19,8 +20,9 @@ from vpro_assets.perturb.schedules import stale_frames_needed, stale_source_step
 class Staleness(Perturbation):
     def __init__(self, case_id: str, params: Mapping, task):
         self.case_id = case_id
-        self.camera = param(case_id, params, "camera", str, lambda v: v in VIEWS.values(),
-                            f"one of {', '.join(VIEWS.values())}")
+        self.camera = param(
+            case_id, params, "camera", str, lambda v: v in VIEWS.values(), f"one of {', '.join(VIEWS.values())}"
+        )
         self.mode = param(case_id, params, "mode", str, lambda v: v in ("delay", "freeze", "replay"))
         self.params: dict[str, int] = {}
         if self.mode == "delay":
@@ -29,9 +31,14 @@ class Staleness(Perturbation):
             self.params["freeze_step"] = param(case_id, params, "freeze_step", int, lambda v: v >= 0)
         else:
             self.params["replay_start"] = param(case_id, params, "replay_start", int, lambda v: v >= 1)
-            self.params["replay_window"] = param(case_id, params, "replay_window", int,
-                                                 lambda v: 1 <= v <= params["replay_start"],
-                                                 "between 1 and replay_start")
+            self.params["replay_window"] = param(
+                case_id,
+                params,
+                "replay_window",
+                int,
+                lambda v: 1 <= v <= params["replay_start"],
+                "between 1 and replay_start",
+            )
         self.buffer: dict[int, np.ndarray] = {}
 
     def reset(self, episode: Episode) -> None:

@@ -8,9 +8,10 @@
 No extra render: the removed camera is still rendered by the env (LIBERO renders every camera it
 was built with), its frame is just not shown.
 """
+
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 from vpro_assets.benchmark.taxonomy import VIEWS
 from vpro_assets.perturb.base import Perturbation, Step, param
@@ -21,10 +22,12 @@ REPLACEMENTS = ("single_view", "constant", "duplicate")
 class ViewUnavailability(Perturbation):
     def __init__(self, case_id: str, params: Mapping, task):
         self.case_id = case_id
-        self.camera = param(case_id, params, "camera", str, lambda v: v in VIEWS.values(),
-                            f"one of {', '.join(VIEWS.values())}")
-        self.replacement = param(case_id, params, "replacement", str, lambda v: v in REPLACEMENTS,
-                                 f"one of {', '.join(REPLACEMENTS)}")
+        self.camera = param(
+            case_id, params, "camera", str, lambda v: v in VIEWS.values(), f"one of {', '.join(VIEWS.values())}"
+        )
+        self.replacement = param(
+            case_id, params, "replacement", str, lambda v: v in REPLACEMENTS, f"one of {', '.join(REPLACEMENTS)}"
+        )
         self.value = 0
         if self.replacement == "constant":
             self.value = param(case_id, params, "constant_value", int, lambda v: 0 <= v <= 255, "a uint8 level")

@@ -15,9 +15,10 @@ perturbed. `info["vpro"]` carries the step, the phase, what each camera got, and
 policy receives (`available_cameras`: under single-view unavailability one camera is absent from
 the observation and from this list, which is how adapters are told).
 """
+
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -27,8 +28,7 @@ from vpro_assets.perturb.pipeline import ObservationPipeline, build_pipeline
 
 
 class PerturbedEnv:
-    def __init__(self, env, case: Mapping | str | None, task: TaskRecord,
-                 pipeline: ObservationPipeline | None = None):
+    def __init__(self, env, case: Mapping | str | None, task: TaskRecord, pipeline: ObservationPipeline | None = None):
         if not hasattr(env, "sim") or not hasattr(env, "step"):
             raise InvalidParameterError(f"PerturbedEnv wraps a LIBERO/robosuite env, got {type(env).__name__}")
         self.env = env

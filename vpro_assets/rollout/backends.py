@@ -11,6 +11,7 @@ yields an error row for the episode it held and is replaced.
 Rendering: Mesa's llvmpipe renders on every core by default; with several workers each renders on
 one thread (`LP_NUM_THREADS=1`) so they do not fight over the cores.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -19,7 +20,8 @@ import multiprocessing as mp
 import os
 import queue
 import signal
-from typing import Any, Iterable, Iterator, Optional
+from collections.abc import Iterable, Iterator
+from typing import Any
 
 from vpro_assets.core.errors import VProError
 from vpro_assets.rollout.case_env import release_cached_envs
@@ -84,8 +86,13 @@ def _rows_of_dead_workers(procs: dict, in_flight: dict, remaining: set, by_key: 
         if key is not None and key in remaining:
             remaining.discard(key)
             row = base_row(by_key[key])
-            row.update(status="error", error_kind="WorkerDied", attempts=1, finished_at=utc_now(),
-                       error=f"worker process {pid} died (exit code {proc.exitcode}) during the episode")
+            row.update(
+                status="error",
+                error_kind="WorkerDied",
+                attempts=1,
+                finished_at=utc_now(),
+                error=f"worker process {pid} died (exit code {proc.exitcode}) during the episode",
+            )
             yield row
 
 
@@ -143,7 +150,7 @@ def run_local(jobs: Iterable[dict], workers: int) -> Iterator[dict]:
         results_writer.close()
 
 
-def run_ray(jobs: Iterable[dict], workers: int, address: Optional[str] = None) -> Iterator[dict]:
+def run_ray(jobs: Iterable[dict], workers: int, address: str | None = None) -> Iterator[dict]:
     try:
         import ray
     except ImportError:
@@ -153,8 +160,12 @@ def run_ray(jobs: Iterable[dict], workers: int, address: Optional[str] = None) -
         return
     started_here = False
     if not ray.is_initialized():
-        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False,
-                  "runtime_env": {"env_vars": worker_env(max(workers, 2))}}
+        kwargs: dict[str, Any] = {
+            "include_dashboard": False,
+            "log_to_driver": False,
+            "configure_logging": False,
+            "runtime_env": {"env_vars": worker_env(max(workers, 2))},
+        }
         if address:
             ray.init(address=address, **kwargs)
         else:
@@ -176,15 +187,20 @@ def run_ray(jobs: Iterable[dict], workers: int, address: Optional[str] = None) -
                     yield ray.get(ref)
                 except Exception as exc:  # the Ray worker died or the task could not run
                     row = base_row(job)
-                    row.update(status="error", error_kind="RayTaskError", attempts=1, finished_at=utc_now(),
-                               error=f"Ray task failed: {type(exc).__name__}: {str(exc).splitlines()[0][:300]}")
+                    row.update(
+                        status="error",
+                        error_kind="RayTaskError",
+                        attempts=1,
+                        finished_at=utc_now(),
+                        error=f"Ray task failed: {type(exc).__name__}: {str(exc).splitlines()[0][:300]}",
+                    )
                     yield row
     finally:
         if started_here:
             ray.shutdown()
 
 
-def run_jobs(jobs: list[dict], backend: str = "local", workers: int = 1, address: Optional[str] = None) -> Iterator[dict]:
+def run_jobs(jobs: list[dict], backend: str = "local", workers: int = 1, address: str | None = None) -> Iterator[dict]:
     if backend == "inline":
         return run_inline(jobs)
     if backend == "local":

@@ -13,14 +13,16 @@ observation cases, a bare `PhaseTracker` for Normal and scene cases.
 An unavailable case raises CaseUnavailableError (recorded once, not retried); anything the
 simulator raises becomes SimulatorError (an infrastructure error, retried).
 """
+
 from __future__ import annotations
 
 import atexit
 import hashlib
 import logging
+from collections.abc import Mapping
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Mapping, Optional
+from typing import Any
 
 import numpy as np
 
@@ -58,11 +60,14 @@ def scene_artifacts(case: Mapping) -> dict:
     try:
         found = dict(built_case(case["id"]))
     except (VProError, FileNotFoundError, KeyError, StopIteration, ValueError) as exc:
-        raise CaseUnavailableError(f"case {case['id']}: scene not built; run vpro build --select {case['id']} "
-                                   f"({exc})") from None
+        raise CaseUnavailableError(
+            f"case {case['id']}: scene not built; run vpro build --select {case['id']} ({exc})"
+        ) from None
     if not (Path(found["bddl"]).is_file() and Path(found["init_states"]).is_file()):
-        raise CaseUnavailableError(f"case {case['id']}: scene not built (files missing in {found.get('dir')}); "
-                                   f"run vpro build --select {case['id']}")
+        raise CaseUnavailableError(
+            f"case {case['id']}: scene not built (files missing in {found.get('dir')}); "
+            f"run vpro build --select {case['id']}"
+        )
     meta = found.get("meta") or {}
     if case.get("category") == "task_relevant_distractors":
         found["distractors"] = list(meta.get("added") or [])
@@ -111,8 +116,17 @@ atexit.register(release_cached_envs)  # close GL contexts while the GL library i
 class CaseEnv:
     """One episode's environment: LIBERO env + optional perturbation wrapper + initial state."""
 
-    def __init__(self, case: Mapping, trial: int, env, init_state: np.ndarray, wrapper: Optional[CaseObserver] = None,
-                 artifacts: Optional[dict] = None, scene: Optional[dict] = None, cache_key: Optional[tuple] = None):
+    def __init__(
+        self,
+        case: Mapping,
+        trial: int,
+        env,
+        init_state: np.ndarray,
+        wrapper: CaseObserver | None = None,
+        artifacts: dict | None = None,
+        scene: dict | None = None,
+        cache_key: tuple | None = None,
+    ):
         self.case, self.trial, self.env, self.wrapper = case, trial, env, wrapper
         self.cache_key = cache_key
         self.broken = False
@@ -137,7 +151,9 @@ class CaseEnv:
             obs = self.env.set_init_state(self.init_state)
         except Exception as exc:
             self.broken = True
-            raise SimulatorError(f"case {self.case['id']} trial {self.trial}: reset failed ({type(exc).__name__}: {exc})") from exc
+            raise SimulatorError(
+                f"case {self.case['id']} trial {self.trial}: reset failed ({type(exc).__name__}: {exc})"
+            ) from exc
         if self.wrapper is not None:
             self.wrapper.on_reset(obs)
         else:
@@ -151,14 +167,16 @@ class CaseEnv:
             obs, _reward, done, _info = self.env.step(np.asarray(action, dtype=np.float64))
         except Exception as exc:
             self.broken = True
-            raise SimulatorError(f"case {self.case['id']} trial {self.trial}: step failed ({type(exc).__name__}: {exc})") from exc
+            raise SimulatorError(
+                f"case {self.case['id']} trial {self.trial}: step failed ({type(exc).__name__}: {exc})"
+            ) from exc
         if self.wrapper is not None:
             self.wrapper.on_step(obs)
         elif self.tracker is not None:
             self.tracker.update(self.sim)
         return obs, bool(done)
 
-    def policy_images(self, obs: Mapping, step: int) -> dict[str, Optional[np.ndarray]]:
+    def policy_images(self, obs: Mapping, step: int) -> dict[str, np.ndarray | None]:
         """The views the policy receives at this step (raw frame; None = unavailable view)."""
         if self.wrapper is not None:
             return dict(self.wrapper.policy_images(obs, step))
@@ -168,7 +186,7 @@ class CaseEnv:
         if self.wrapper is not None:
             self.wrapper.feed_predicted(frames)
 
-    def phase_timeline(self) -> Optional[dict]:
+    def phase_timeline(self) -> dict | None:
         if self.wrapper is not None:
             return self.wrapper.phase_timeline()
         return self.tracker.timeline() if self.tracker is not None else None
@@ -197,8 +215,15 @@ def check_available(case: Mapping) -> None:
         scene_artifacts(case)
 
 
-def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs: Optional[dict] = None,
-                 reuse: bool = True, render: bool = True) -> CaseEnv:
+def env_for_case(
+    case: Mapping,
+    trial: int,
+    *,
+    resolution: int = 256,
+    env_kwargs: dict | None = None,
+    reuse: bool = True,
+    render: bool = True,
+) -> CaseEnv:
     """Build the environment of one trial of one case (see the module docstring). `render=False`:
     the same physics without a renderer or camera observations (no perturbation wrapper then)."""
     task = get_task(case["task"])
@@ -223,8 +248,9 @@ def env_for_case(case: Mapping, trial: int, *, resolution: int = 256, env_kwargs
     env = _take_cached_env(key) if key is not None else None
     try:
         if env is None:
-            env = make_env(task, resolution, bddl_file=bddl if level == "scene" else None, render=render,
-                           **(env_kwargs or {}))
+            env = make_env(
+                task, resolution, bddl_file=bddl if level == "scene" else None, render=render, **(env_kwargs or {})
+            )
     except VProError:
         raise
     except Exception as exc:

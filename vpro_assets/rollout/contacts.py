@@ -6,9 +6,10 @@ LIBERO names an object's bodies). An episode is then `target_only`, `distractor_
 `neither`, with the first step of each kind of contact. Cases without a distractor can only be
 `target_only` or `neither`.
 """
+
 from __future__ import annotations
 
-from typing import Iterable, Optional
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -35,14 +36,14 @@ def _geoms_of(model, instances: Iterable[str]) -> set[int]:
 
 
 class ContactTracker:
-    def __init__(self, sim, target: Optional[str], distractors: Iterable[str] = ()):
+    def __init__(self, sim, target: str | None, distractors: Iterable[str] = ()):
         model = sim.model
         self.sim = sim
         self.gripper = {g for g in range(model.ngeom) if (model.geom_id2name(g) or "").startswith(GRIPPER_PREFIX)}
         self.target = _geoms_of(model, [target] if target else [])
         self.distractor = _geoms_of(model, distractors) - self.target
-        self.first_target: Optional[int] = None
-        self.first_distractor: Optional[int] = None
+        self.first_target: int | None = None
+        self.first_distractor: int | None = None
 
     def update(self, step: int) -> None:
         data = self.sim.data
@@ -69,5 +70,9 @@ class ContactTracker:
         return "both" if t and d else "target_only" if t else "distractor_only" if d else "neither"
 
     def summary(self) -> dict:
-        return {"composition": self.composition, "first_target_step": self.first_target,
-                "first_distractor_step": self.first_distractor, "distractor_tracked": bool(self.distractor)}
+        return {
+            "composition": self.composition,
+            "first_target_step": self.first_target,
+            "first_distractor_step": self.first_distractor,
+            "distractor_tracked": bool(self.distractor),
+        }

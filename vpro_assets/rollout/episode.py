@@ -6,6 +6,7 @@ most 220 / 280 / 300 / 520 policy steps for libero_spatial / object / goal / 10.
 is executed up to the policy's `replan_steps` before the next query. The result is a plain dict,
 the fields of one row of the results store.
 """
+
 from __future__ import annotations
 
 import logging
@@ -107,13 +108,20 @@ class EpisodeSession:
         return self.contacts
 
     def episode_info(self) -> EpisodeInfo:
-        return EpisodeInfo(instruction=self.instruction, case_id=self.case["id"], trial=self.trial, seed=self.seed,
-                           suite=self.case["suite"], task=self.case["task"])
+        return EpisodeInfo(
+            instruction=self.instruction,
+            case_id=self.case["id"],
+            trial=self.trial,
+            seed=self.seed,
+            suite=self.case["suite"],
+            task=self.case["task"],
+        )
 
     def start(self, on_reset: Callable[[CaseEnv], None] | None = None) -> dict:
         """Build the env, reset it to the trial's initial state, run the wait steps; the raw observation."""
-        self.cenv = env_for_case(self.case, self.trial, resolution=self.settings.resolution,
-                                 render=self.settings.render)
+        self.cenv = env_for_case(
+            self.case, self.trial, resolution=self.settings.resolution, render=self.settings.render
+        )
         obs = self.cenv.reset()
         if on_reset is not None:
             on_reset(self.cenv)
@@ -149,10 +157,17 @@ class EpisodeSession:
         return self.success or self.steps >= self.limit
 
     def result(self, video: str | None = None) -> dict:
-        return {"success": self.success, "steps": self.steps, "seed": self.seed,
-                "phase_timeline": self.env.phase_timeline(), "contact": self.contact_tracker.summary(),
-                "artifact_hashes": self.env.artifact_hashes, "wall_time": time.time() - self.started,
-                "video": video, "final_state": self.env.state_digest()}
+        return {
+            "success": self.success,
+            "steps": self.steps,
+            "seed": self.seed,
+            "phase_timeline": self.env.phase_timeline(),
+            "contact": self.contact_tracker.summary(),
+            "artifact_hashes": self.env.artifact_hashes,
+            "wall_time": time.time() - self.started,
+            "video": video,
+            "final_state": self.env.state_digest(),
+        }
 
     def close(self) -> None:
         if self.cenv is not None:
@@ -164,11 +179,15 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
     """Run one episode and return its row fields. Raises InfrastructureError or CaseUnavailableError."""
     session = EpisodeSession(case, trial, settings)
     if not settings.render and getattr(policy, "uses_images", True):
-        raise VProError(f"policy {_pid(policy)} acts on camera images; render-free episodes run only policies "
-                        "that declare uses_images = False (noop, random, oracle)")
+        raise VProError(
+            f"policy {_pid(policy)} acts on camera images; render-free episodes run only policies "
+            "that declare uses_images = False (noop, random, oracle)"
+        )
     if case.get("params", {}).get("requires_predicted_frames") and not getattr(policy, "predicts_frames", False):
-        raise CaseUnavailableError(f"case {case['id']}: policy {_pid(policy)} does not predict frames; "
-                                   "Prediction-Reality Divergence applies to frame-predicting policies only")
+        raise CaseUnavailableError(
+            f"case {case['id']}: policy {_pid(policy)} does not predict frames; "
+            "Prediction-Reality Divergence applies to frame-predicting policies only"
+        )
     # The policy first: a server that is down is found before the env is built.
     try:
         policy.reset(session.episode_info())

@@ -20,6 +20,7 @@ LeRobot's choice of initial state: without `options={"trial": k}`, successive re
 simulator is seeded by the case's trial seed (the frozen scenes need it); `reset(seed=...)` seeds
 only the env's `np_random`.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -45,17 +46,28 @@ LAYOUTS = ("vpro", "lerobot")
 class VProCaseEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
 
-    def __init__(self, case: str | dict, resolution: int = 256, max_steps: int | None = None,
-                 wait_steps: int = WAIT_STEPS, render_mode: str | None = None, obs_layout: str = "vpro",
-                 obs_type: str = "pixels_agent_pos", camera_name_mapping: dict[str, str] | None = None,
-                 episode_index: int = 0, n_envs: int = 1):
+    def __init__(
+        self,
+        case: str | dict,
+        resolution: int = 256,
+        max_steps: int | None = None,
+        wait_steps: int = WAIT_STEPS,
+        render_mode: str | None = None,
+        obs_layout: str = "vpro",
+        obs_type: str = "pixels_agent_pos",
+        camera_name_mapping: dict[str, str] | None = None,
+        episode_index: int = 0,
+        n_envs: int = 1,
+    ):
         self.case = case if isinstance(case, dict) else find_case(load_catalog(paths.catalog_path()), case)
         if obs_layout not in LAYOUTS:
-            raise InvalidParameterError(f"case {self.case['id']}: obs_layout {obs_layout!r} is not one of "
-                                        f"{', '.join(LAYOUTS)}")
+            raise InvalidParameterError(
+                f"case {self.case['id']}: obs_layout {obs_layout!r} is not one of {', '.join(LAYOUTS)}"
+            )
         if int(n_envs) < 1 or int(episode_index) < 0:
-            raise InvalidParameterError(f"case {self.case['id']}: need episode_index >= 0 and n_envs >= 1, got "
-                                        f"{episode_index!r} and {n_envs!r}")
+            raise InvalidParameterError(
+                f"case {self.case['id']}: need episode_index >= 0 and n_envs >= 1, got {episode_index!r} and {n_envs!r}"
+            )
         check_available(self.case)
         self.obs_layout, self.obs_type = obs_layout, obs_type
         self.resolution, self.wait_steps = resolution, wait_steps
@@ -72,8 +84,9 @@ class VProCaseEnv(gym.Env):
             self.action_space = spaces.Box(-1.0, 1.0, (7,), np.float32)
         else:
             image = spaces.Box(0, 255, (resolution, resolution, 3), np.uint8)
-            self.observation_space = spaces.Dict({f"{cam}_image": image for cam in CAMERAS}
-                                                 | {"state": spaces.Box(-np.inf, np.inf, (8,), np.float64)})
+            self.observation_space = spaces.Dict(
+                {f"{cam}_image": image for cam in CAMERAS} | {"state": spaces.Box(-np.inf, np.inf, (8,), np.float64)}
+            )
             self.action_space = spaces.Box(-1.0, 1.0, (7,), np.float64)
         self._cenv: CaseEnv | None = None
         self._raw: dict[str, Any] = {}
@@ -90,18 +103,30 @@ class VProCaseEnv(gym.Env):
     def _observation(self) -> tuple[dict, dict]:
         images = self._live.policy_images(self._raw, self._t)
         self._shown = images
-        info = {"available_views": [c for c in CAMERAS if images.get(c) is not None], "step": self._t,
-                "language": self.task_description}
+        info = {
+            "available_views": [c for c in CAMERAS if images.get(c) is not None],
+            "step": self._t,
+            "language": self.task_description,
+        }
         if self.obs_layout == "lerobot":
-            return lerobot_layout.format_observation(self._raw, images, self._live.env, self.resolution,
-                                                     self.camera_name_mapping, self.obs_type), info
+            return lerobot_layout.format_observation(
+                self._raw, images, self._live.env, self.resolution, self.camera_name_mapping, self.obs_type
+            ), info
         obs = {}
         for cam in CAMERAS:
             img = images.get(cam)
-            obs[f"{cam}_image"] = (np.asarray(img, dtype=np.uint8) if img is not None
-                                   else np.zeros((self.resolution,) * 2 + (3,), np.uint8))
-        obs["state"] = np.concatenate([self._raw["robot0_eef_pos"], quat2axisangle(self._raw["robot0_eef_quat"]),
-                                       self._raw["robot0_gripper_qpos"]]).astype(np.float64)
+            obs[f"{cam}_image"] = (
+                np.asarray(img, dtype=np.uint8)
+                if img is not None
+                else np.zeros((self.resolution,) * 2 + (3,), np.uint8)
+            )
+        obs["state"] = np.concatenate(
+            [
+                self._raw["robot0_eef_pos"],
+                quat2axisangle(self._raw["robot0_eef_quat"]),
+                self._raw["robot0_gripper_qpos"],
+            ]
+        ).astype(np.float64)
         return obs, info
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):

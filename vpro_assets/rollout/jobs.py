@@ -8,6 +8,7 @@ episode, and turns every outcome into a row:
 - `error`: an infrastructure error (server down or slow, NaN or misshapen actions, simulator
   exception) that persisted through `retries` further attempts; never a policy failure.
 """
+
 from __future__ import annotations
 
 import json
@@ -46,24 +47,48 @@ def _drop_policy(spec: str, options: dict) -> None:
             log.debug("policy close failed", exc_info=True)
 
 
-def make_job(run_id: str, case: dict, trial: int, policy_spec: str, policy_options: dict,
-             settings: EpisodeSettings, retries: int, retry_delay: float) -> dict:
-    return {"run_id": run_id, "case": case, "trial": trial, "policy_spec": policy_spec,
-            "policy_options": dict(policy_options), "settings": settings.to_json(), "retries": retries,
-            "retry_delay": retry_delay, "prior_attempts": 0}
+def make_job(
+    run_id: str,
+    case: dict,
+    trial: int,
+    policy_spec: str,
+    policy_options: dict,
+    settings: EpisodeSettings,
+    retries: int,
+    retry_delay: float,
+) -> dict:
+    return {
+        "run_id": run_id,
+        "case": case,
+        "trial": trial,
+        "policy_spec": policy_spec,
+        "policy_options": dict(policy_options),
+        "settings": settings.to_json(),
+        "retries": retries,
+        "retry_delay": retry_delay,
+        "prior_attempts": 0,
+    }
 
 
 def base_row(job: dict) -> dict:
     case = job["case"]
     normal = not case.get("setting")
-    return {"run_id": job["run_id"], "case_id": case["id"], "trial": job["trial"],
-            "seed": int(case["trial_seeds"][job["trial"]]),
-            "policy_id": policy_label(job["policy_spec"], job["policy_options"]),
-            "suite": case["suite"], "task": case["task"],
-            "dimension": None if normal else case.get("dimension"),
-            "category": "normal" if normal else case.get("category"), "setting": case.get("setting"),
-            "indicator": None if normal else case.get("indicator"), "level": "normal" if normal else case.get("level"),
-            "worker": f"{socket.gethostname()}:{os.getpid()}", "simulator": simulator_versions()}
+    return {
+        "run_id": job["run_id"],
+        "case_id": case["id"],
+        "trial": job["trial"],
+        "seed": int(case["trial_seeds"][job["trial"]]),
+        "policy_id": policy_label(job["policy_spec"], job["policy_options"]),
+        "suite": case["suite"],
+        "task": case["task"],
+        "dimension": None if normal else case.get("dimension"),
+        "category": "normal" if normal else case.get("category"),
+        "setting": case.get("setting"),
+        "indicator": None if normal else case.get("indicator"),
+        "level": "normal" if normal else case.get("level"),
+        "worker": f"{socket.gethostname()}:{os.getpid()}",
+        "simulator": simulator_versions(),
+    }
 
 
 def execute_job(job: dict) -> dict:
@@ -95,10 +120,20 @@ def execute_job(job: dict) -> dict:
             kind = "UnexpectedError"
             _drop_policy(job["policy_spec"], job["policy_options"])
             continue
-        row.update(status="ok", success=bool(result["success"]), steps=result["steps"],
-                   phase_timeline=result["phase_timeline"], contact=result["contact"]["composition"],
-                   contact_detail=result["contact"], wall_time=result["wall_time"],
-                   artifact_hashes=result["artifact_hashes"], video=result["video"], final_state=result["final_state"], error=None, error_kind=None)
+        row.update(
+            status="ok",
+            success=bool(result["success"]),
+            steps=result["steps"],
+            phase_timeline=result["phase_timeline"],
+            contact=result["contact"]["composition"],
+            contact_detail=result["contact"],
+            wall_time=result["wall_time"],
+            artifact_hashes=result["artifact_hashes"],
+            video=result["video"],
+            final_state=result["final_state"],
+            error=None,
+            error_kind=None,
+        )
         break
     else:
         row.update(status="error", error=f"{last_error} (after {budget} attempt(s))", error_kind=kind)

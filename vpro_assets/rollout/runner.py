@@ -5,17 +5,18 @@ and trial count. `resume=True` continues a run: episodes with a row are skipped 
 ended in an infrastructure error are attempted again when `retry_errors`), so a run killed with
 kill -9 ends, after resuming, with the same set of rows as an uninterrupted one.
 """
+
 from __future__ import annotations
 
 import hashlib
 import logging
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional, Sequence
 
-from vpro_assets.core import paths
 from vpro_assets.benchmark.catalog import library_versions
+from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
 from vpro_assets.rollout.backends import run_jobs
 from vpro_assets.rollout.episode import EpisodeSettings
@@ -41,18 +42,32 @@ def new_run_id(policy_id: str) -> str:
     return f"{time.strftime('%Y%m%dT%H%M%SZ', time.gmtime())}-{safe}"
 
 
-def _catalog_sha(path: Optional[Path]) -> Optional[str]:
+def _catalog_sha(path: Path | None) -> str | None:
     if path is None or not Path(path).is_file():
         return None
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def run_eval(cases: Sequence[dict], *, results: Path | str, policy_spec: str, policy_options: Optional[dict] = None,
-             settings: Optional[EpisodeSettings] = None, trials: int = 10, run_id: Optional[str] = None,
-             resume: bool = False, retry_errors: bool = False, backend: str = "local", workers: int = 1,
-             address: Optional[str] = None, retries: int = 2, retry_delay: float = 2.0,
-             selection: Sequence[str] = (), on_row: Optional[Callable[[dict], None]] = None,
-             on_plan: Optional[Callable[[int, int], None]] = None) -> RunSummary:
+def run_eval(
+    cases: Sequence[dict],
+    *,
+    results: Path | str,
+    policy_spec: str,
+    policy_options: dict | None = None,
+    settings: EpisodeSettings | None = None,
+    trials: int = 10,
+    run_id: str | None = None,
+    resume: bool = False,
+    retry_errors: bool = False,
+    backend: str = "local",
+    workers: int = 1,
+    address: str | None = None,
+    retries: int = 2,
+    retry_delay: float = 2.0,
+    selection: Sequence[str] = (),
+    on_row: Callable[[dict], None] | None = None,
+    on_plan: Callable[[int, int], None] | None = None,
+) -> RunSummary:
     policy_options = dict(policy_options or {})
     settings = settings or EpisodeSettings()
     if trials < 1:
@@ -70,14 +85,24 @@ def run_eval(cases: Sequence[dict], *, results: Path | str, policy_spec: str, po
             if run is None:
                 raise VProError(f"{results}: no run {run_id!r} to resume" if run_id else f"{results}: no run to resume")
             if run["policy_spec"] != policy_spec or run["settings"] != settings.to_json():
-                raise VProError(f"run {run_id} was started with policy {run['policy_spec']!r} and settings "
-                                f"{run['settings']}; resume it with the same options")
+                raise VProError(
+                    f"run {run_id} was started with policy {run['policy_spec']!r} and settings "
+                    f"{run['settings']}; resume it with the same options"
+                )
         else:
             run_id = run_id or new_run_id(pid)
             if store.run(run_id) is not None:
                 raise VProError(f"{results}: run {run_id!r} exists; continue it with --resume")
-            store.create_run(run_id, policy_spec, pid, settings.to_json(), list(selection), trials,
-                             library_versions(), _catalog_sha(paths.catalog_path()))
+            store.create_run(
+                run_id,
+                policy_spec,
+                pid,
+                settings.to_json(),
+                list(selection),
+                trials,
+                library_versions(),
+                _catalog_sha(paths.catalog_path()),
+            )
         done = store.done_keys(run_id, include_errors=not retry_errors)
         jobs = []
         for case in cases:

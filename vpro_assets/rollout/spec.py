@@ -6,17 +6,18 @@
 
 Options (timeouts, replanning) travel as a JSON-able dict next to the spec.
 """
+
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 from vpro_assets.core.errors import VProError
 from vpro_assets.rollout.policies.callable import load_attribute, make_python_policy
 from vpro_assets.rollout.policies.openpi import OpenpiPolicy
 from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES
 
-OPENPI_OPTIONS = ("replan_steps", "connect_timeout", "infer_timeout", "resize", "api_key", "policy_id",
-                  "episode_reset")
+OPENPI_OPTIONS = ("replan_steps", "connect_timeout", "infer_timeout", "resize", "api_key", "policy_id", "episode_reset")
 
 
 def parse_openpi(spec: str) -> tuple[str, int]:
@@ -37,8 +38,9 @@ def make_policy(spec: str, options: Mapping[str, Any] | None = None):
     target = spec[3:] if spec.startswith("py:") else spec
     if ":" in target:
         return make_python_policy(target)
-    raise VProError(f"unknown policy {spec!r}: use noop, random, oracle, openpi:HOST:PORT, ws://HOST:PORT "
-                    "or py:MODULE:ATTR")
+    raise VProError(
+        f"unknown policy {spec!r}: use noop, random, oracle, openpi:HOST:PORT, ws://HOST:PORT or py:MODULE:ATTR"
+    )
 
 
 def check_spec(spec: str) -> None:

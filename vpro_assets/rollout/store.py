@@ -16,13 +16,14 @@ Tables:
        simulator state at the end: a fingerprint of the trajectory, equal across backends),
        simulator JSON (the worker's mujoco, robosuite and hf-libero versions; schema 2))
 """
+
 from __future__ import annotations
 
 import json
 import sqlite3
 import time
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable, Optional
 
 from vpro_assets.core.errors import VProError
 
@@ -69,10 +70,36 @@ CREATE TABLE IF NOT EXISTS episodes (
 CREATE INDEX IF NOT EXISTS episodes_by_category ON episodes(run_id, category, setting);
 """
 
-EPISODE_COLUMNS = ("run_id", "case_id", "trial", "seed", "policy_id", "suite", "task", "dimension", "category",
-                   "setting", "indicator", "level", "status", "success", "steps", "phase_timeline", "contact",
-                   "contact_detail", "wall_time", "artifact_hashes", "error", "error_kind", "attempts", "worker",
-                   "finished_at", "video", "final_state", "simulator")
+EPISODE_COLUMNS = (
+    "run_id",
+    "case_id",
+    "trial",
+    "seed",
+    "policy_id",
+    "suite",
+    "task",
+    "dimension",
+    "category",
+    "setting",
+    "indicator",
+    "level",
+    "status",
+    "success",
+    "steps",
+    "phase_timeline",
+    "contact",
+    "contact_detail",
+    "wall_time",
+    "artifact_hashes",
+    "error",
+    "error_kind",
+    "attempts",
+    "worker",
+    "finished_at",
+    "video",
+    "final_state",
+    "simulator",
+)
 _JSON_COLUMNS = ("phase_timeline", "contact_detail", "artifact_hashes", "simulator")
 
 
@@ -117,13 +144,33 @@ class ResultsStore:
         self.close()
 
     # ---- runs -------------------------------------------------------------------------------
-    def create_run(self, run_id: str, policy_spec: str, policy_id: str, settings: dict, selection: list, trials: int,
-                   versions: dict, catalog_sha256: Optional[str]) -> None:
-        self.db.execute("INSERT INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                        (run_id, utc_now(), policy_spec, policy_id, json.dumps(settings, sort_keys=True),
-                         json.dumps(list(selection)), trials, json.dumps(versions, sort_keys=True), catalog_sha256))
+    def create_run(
+        self,
+        run_id: str,
+        policy_spec: str,
+        policy_id: str,
+        settings: dict,
+        selection: list,
+        trials: int,
+        versions: dict,
+        catalog_sha256: str | None,
+    ) -> None:
+        self.db.execute(
+            "INSERT INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (
+                run_id,
+                utc_now(),
+                policy_spec,
+                policy_id,
+                json.dumps(settings, sort_keys=True),
+                json.dumps(list(selection)),
+                trials,
+                json.dumps(versions, sort_keys=True),
+                catalog_sha256,
+            ),
+        )
 
-    def run(self, run_id: str) -> Optional[dict]:
+    def run(self, run_id: str) -> dict | None:
         row = self.db.execute("SELECT * FROM runs WHERE run_id = ?", (run_id,)).fetchone()
         if row is None:
             return None
@@ -136,7 +183,7 @@ class ResultsStore:
         ids = [r[0] for r in self.db.execute("SELECT run_id FROM runs ORDER BY created_at, rowid")]
         return [run for run_id in ids if (run := self.run(run_id)) is not None]
 
-    def latest_run_id(self) -> Optional[str]:
+    def latest_run_id(self) -> str | None:
         row = self.db.execute("SELECT run_id FROM runs ORDER BY created_at DESC, rowid DESC LIMIT 1").fetchone()
         return row[0] if row else None
 
@@ -144,12 +191,15 @@ class ResultsStore:
     def done_keys(self, run_id: str, include_errors: bool = True) -> set[tuple[str, int]]:
         """(case, trial) pairs that need no new attempt: results, plus errors unless they are to be retried."""
         where = "" if include_errors else " AND status != 'error'"
-        return {(r[0], r[1]) for r in self.db.execute(
-            f"SELECT case_id, trial FROM episodes WHERE run_id = ?{where}", (run_id,))}
+        return {
+            (r[0], r[1])
+            for r in self.db.execute(f"SELECT case_id, trial FROM episodes WHERE run_id = ?{where}", (run_id,))
+        }
 
     def attempts(self, run_id: str, case_id: str, trial: int) -> int:
-        row = self.db.execute("SELECT attempts FROM episodes WHERE run_id=? AND case_id=? AND trial=?",
-                              (run_id, case_id, trial)).fetchone()
+        row = self.db.execute(
+            "SELECT attempts FROM episodes WHERE run_id=? AND case_id=? AND trial=?", (run_id, case_id, trial)
+        ).fetchone()
         return int(row[0]) if row else 0
 
     def record(self, row: dict) -> bool:
@@ -172,10 +222,12 @@ class ResultsStore:
         updates = ", ".join(f"{c} = excluded.{c}" for c in EPISODE_COLUMNS[3:])
         cur = self.db.execute(
             f"INSERT INTO episodes ({cols}) VALUES ({marks}) ON CONFLICT(run_id, case_id, trial) "
-            f"DO UPDATE SET {updates} WHERE episodes.status != 'ok'", values)
+            f"DO UPDATE SET {updates} WHERE episodes.status != 'ok'",
+            values,
+        )
         return cur.rowcount > 0
 
-    def episodes(self, run_id: Optional[str] = None) -> list[dict]:
+    def episodes(self, run_id: str | None = None) -> list[dict]:
         query = "SELECT * FROM episodes"
         args: tuple[str, ...] = ()
         if run_id is not None:
@@ -190,8 +242,12 @@ class ResultsStore:
         return rows
 
     def count(self, run_id: str) -> dict[str, int]:
-        return {r[0]: r[1] for r in self.db.execute(
-            "SELECT status, COUNT(*) FROM episodes WHERE run_id = ? GROUP BY status", (run_id,))}
+        return {
+            r[0]: r[1]
+            for r in self.db.execute(
+                "SELECT status, COUNT(*) FROM episodes WHERE run_id = ? GROUP BY status", (run_id,)
+            )
+        }
 
 
 def open_readonly_rows(path: Path | str, run_ids: Iterable[str] | None = None) -> list[dict]:

@@ -8,6 +8,7 @@
 Importing this package does not import vla-eval; its modules do, with an actionable message when
 the extra is not installed.
 """
+
 from __future__ import annotations
 
 import importlib.util

@@ -1,4 +1,5 @@
 """`python -m vpro_assets.integrations.vla_eval [NAME]`: the path of a shipped vla-eval config (all without NAME)."""
+
 from __future__ import annotations
 
 import sys

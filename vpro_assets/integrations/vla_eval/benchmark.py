@@ -25,6 +25,7 @@ task, dimension, category, setting, indicator and level, plus `vpro eval`'s row 
 phase timeline, contact composition, artifact hashes, final-state digest), so `vpro report` reads
 a vla-eval results directory (`vpro_assets.report.vla_eval_results`).
 """
+
 from __future__ import annotations
 
 import logging
@@ -76,8 +77,13 @@ class BenchmarkConfigError(VProError, SystemExit):
 def case_labels(case: dict) -> dict[str, Any]:
     """The labels of a case that results are broken down by (the same as `vpro eval`'s rows)."""
     normal = not case.get("setting")
-    labels = {"case_id": case["id"], "suite": case["suite"], "task": case["task"],
-              "category": "normal" if normal else case["category"], "level": "normal" if normal else case["level"]}
+    labels = {
+        "case_id": case["id"],
+        "suite": case["suite"],
+        "task": case["task"],
+        "category": "normal" if normal else case["category"],
+        "level": "normal" if normal else case["level"],
+    }
     if not normal:
         labels.update(setting=case["setting"], dimension=case["dimension"], indicator=case["indicator"])
     return labels
@@ -128,9 +134,16 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         predicts_frames: bool = False,
         image_format: str = "raw",
     ) -> None:
-        super().__init__(suite="libero_vpro", seed=0, num_steps_wait=num_steps_wait,
-                         send_wrist_image=send_wrist_image, send_state=send_state,
-                         absolute_action=absolute_action, max_steps=max_steps, quat_no_antipodal=quat_no_antipodal)
+        super().__init__(
+            suite="libero_vpro",
+            seed=0,
+            num_steps_wait=num_steps_wait,
+            send_wrist_image=send_wrist_image,
+            send_state=send_state,
+            absolute_action=absolute_action,
+            max_steps=max_steps,
+            quat_no_antipodal=quat_no_antipodal,
+        )
         if max_steps is not None and (not isinstance(max_steps, int) or max_steps < 1):
             raise BenchmarkConfigError(f"params.max_steps must be a positive integer, got {max_steps!r}")
         if not isinstance(num_steps_wait, int) or num_steps_wait < 0:
@@ -138,8 +151,9 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         self.settings = EpisodeSettings(resolution=resolution, wait_steps=num_steps_wait, max_steps_override=max_steps)
         self.predicts_frames = bool(predicts_frames)
         if image_format not in WIRE_FORMATS:
-            raise BenchmarkConfigError(f"params.image_format must be one of {', '.join(WIRE_FORMATS)} (lossless), "
-                                       f"got {image_format!r}")
+            raise BenchmarkConfigError(
+                f"params.image_format must be one of {', '.join(WIRE_FORMATS)} (lossless), got {image_format!r}"
+            )
         set_image_format(image_format)  # vla-eval's codec of this process (the harness side)
         self.filters = _filters(select)
         try:
@@ -160,9 +174,13 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         return [{"name": case["id"], "instruction": prompt_of(case), **case_labels(case)} for case in self.cases]
 
     def get_metadata(self) -> dict[str, Any]:
-        return {"max_steps": max(self.settings.limit(c["suite"]) for c in self.cases),
-                "max_episodes_per_task": min(len(c["trial_seeds"]) for c in self.cases),
-                "suite": "libero_vpro", "cases": len(self.cases), "settings": self.settings.to_json()}
+        return {
+            "max_steps": max(self.settings.limit(c["suite"]) for c in self.cases),
+            "max_episodes_per_task": min(len(c["trial_seeds"]) for c in self.cases),
+            "suite": "libero_vpro",
+            "cases": len(self.cases),
+            "settings": self.settings.to_json(),
+        }
 
     def _case(self, task: Task) -> dict:
         for case in self.cases:
@@ -205,12 +223,16 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         case = self._case(task)
         trial = int(task.get("episode_idx", 0))
         if not 0 <= trial < len(case["trial_seeds"]):
-            raise VProError(f"case {case['id']}: episode {trial} has no trial (the case has "
-                            f"{len(case['trial_seeds'])}; set episodes_per_task <= {len(case['trial_seeds'])})")
+            raise VProError(
+                f"case {case['id']}: episode {trial} has no trial (the case has "
+                f"{len(case['trial_seeds'])}; set episodes_per_task <= {len(case['trial_seeds'])})"
+            )
         if case.get("params", {}).get("requires_predicted_frames") and not self.predicts_frames:
-            raise CaseUnavailableError(f"case {case['id']}: the model server does not predict frames "
-                                       "(params.predicts_frames: false); Prediction-Reality Divergence applies "
-                                       "to frame-predicting policies only")
+            raise CaseUnavailableError(
+                f"case {case['id']}: the model server does not predict frames "
+                "(params.predicts_frames: false); Prediction-Reality Divergence applies "
+                "to frame-predicting policies only"
+            )
         self._session = EpisodeSession(case, trial, self.settings)
         obs = self._session.start()
         self._env = self._case_env().env  # vla-eval's LIBERO reads the controller state from it
@@ -227,8 +249,10 @@ class LiberoVProBenchmark(LIBEROBenchmark):
             raise PolicyOutputError(f"model server reply has no 'actions' (keys: {sorted(action or {})})")
         chunk = validate_actions(raw, where="model server")
         if len(chunk) != 1:
-            raise PolicyOutputError(f"model server sent {len(chunk)} actions for one step; LIBERO takes one 7-D "
-                                    "action per observation (set the server's chunk_size)")
+            raise PolicyOutputError(
+                f"model server sent {len(chunk)} actions for one step; LIBERO takes one 7-D "
+                "action per observation (set the server's chunk_size)"
+            )
         processed = chunk[0].copy()
         processed[-1] = -1.0 if processed[-1] < 0 else 1.0  # vla-eval's LIBERO gripper convention
         if action.get("predicted_frames") is not None:
@@ -237,11 +261,16 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         obs = session.step(processed)
         policy_obs = self._policy_obs(obs)
         self._recorder.record_video(self._extract_frame(policy_obs))
-        self._recorder.record_step(reward=float(session.success), done=session.finished,
-                                   success=session.success, action=processed.astype(np.float32),
-                                   state=self._proprio_state(obs).astype(np.float32))
-        return StepResult(obs=policy_obs, reward=float(session.success), done=session.finished,
-                          info={"success": session.success})
+        self._recorder.record_step(
+            reward=float(session.success),
+            done=session.finished,
+            success=session.success,
+            action=processed.astype(np.float32),
+            state=self._proprio_state(obs).astype(np.float32),
+        )
+        return StepResult(
+            obs=policy_obs, reward=float(session.success), done=session.finished, info={"success": session.success}
+        )
 
     def make_obs(self, raw_obs: Any, task: Task) -> Observation:
         obs = super().make_obs(raw_obs, task)
@@ -264,4 +293,3 @@ class LiberoVProBenchmark(LIBEROBenchmark):
         self._close_session()
         self._env = None
         release_cached_envs()
-

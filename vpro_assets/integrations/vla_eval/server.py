@@ -12,6 +12,7 @@ task description), named after the case and trial, written atomically when the e
 `disconnect_episode` / `disconnect_step` drop the connection at that step of the n-th episode the
 server sees (counted from 0 over the server's life): a server that dies mid-episode.
 """
+
 from __future__ import annotations
 
 import io
@@ -39,8 +40,15 @@ log = logging.getLogger(__name__)
 
 
 class ScriptedModelServer(PredictModelServer):
-    def __init__(self, actions: str | None = None, record_dir: str | None = None, disconnect_episode: int = -1,
-                 disconnect_step: int = 0, send_wrist_image: bool = True, send_state: bool = True) -> None:
+    def __init__(
+        self,
+        actions: str | None = None,
+        record_dir: str | None = None,
+        disconnect_episode: int = -1,
+        disconnect_step: int = 0,
+        send_wrist_image: bool = True,
+        send_state: bool = True,
+    ) -> None:
         super().__init__()
         self.actions = np.load(actions).astype(np.float32) if actions else np.zeros((0, 7), np.float32)
         if self.actions.ndim != 2 or self.actions.shape[1] != 7:
@@ -78,9 +86,13 @@ class ScriptedModelServer(PredictModelServer):
     def predict(self, obs: Observation, ctx: SessionContext) -> Action:
         episode = self._episode.get(ctx.session_id)
         if episode is not None and self.record_dir is not None:
-            episode["obs"].append({"images": {k: np.asarray(v) for k, v in (obs.get("images") or {}).items()},
-                                   "states": None if obs.get("states") is None else np.asarray(obs["states"]),
-                                   "task_description": obs.get("task_description", "")})
+            episode["obs"].append(
+                {
+                    "images": {k: np.asarray(v) for k, v in (obs.get("images") or {}).items()},
+                    "states": None if obs.get("states") is None else np.asarray(obs["states"]),
+                    "task_description": obs.get("task_description", ""),
+                }
+            )
         row = self.actions[ctx.step] if ctx.step < len(self.actions) else np.asarray(NOOP_ACTION, np.float32)
         return {"actions": np.asarray(row, dtype=np.float32)}
 

@@ -21,10 +21,12 @@ perturbation layer for Prediction-Reality Divergence. Such a policy says so with
 `vpro_assets.rollout.policies.wam`); Prediction-Reality Divergence cases are unavailable to other
 policies.
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping, Optional, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -70,7 +72,7 @@ class EpisodeInfo:
 class Observation:
     """What the policy sees at one step, after any observation perturbation."""
 
-    images: Mapping[str, Optional[np.ndarray]]  # camera -> HxWx3 uint8, bottom-up; None if unavailable
+    images: Mapping[str, np.ndarray | None]  # camera -> HxWx3 uint8, bottom-up; None if unavailable
     eef_pos: np.ndarray  # (3,)
     eef_quat: np.ndarray  # (4,) x, y, z, w
     gripper_qpos: np.ndarray  # (2,)
@@ -79,20 +81,24 @@ class Observation:
     instruction: str = ""
 
     @classmethod
-    def from_libero(cls, obs: Mapping, step: int, instruction: str, images: Mapping | None = None) -> "Observation":
+    def from_libero(cls, obs: Mapping, step: int, instruction: str, images: Mapping | None = None) -> Observation:
 
         imgs = images if images is not None else {cam: obs.get(f"{cam}_image") for cam in CAMERAS}
-        return cls(images=dict(imgs), eef_pos=np.asarray(obs["robot0_eef_pos"], dtype=np.float64),
-                   eef_quat=np.asarray(obs["robot0_eef_quat"], dtype=np.float64),
-                   gripper_qpos=np.asarray(obs["robot0_gripper_qpos"], dtype=np.float64),
-                   joint_pos=np.asarray(obs["robot0_joint_pos"], dtype=np.float64), step=step,
-                   instruction=instruction)
+        return cls(
+            images=dict(imgs),
+            eef_pos=np.asarray(obs["robot0_eef_pos"], dtype=np.float64),
+            eef_quat=np.asarray(obs["robot0_eef_quat"], dtype=np.float64),
+            gripper_qpos=np.asarray(obs["robot0_gripper_qpos"], dtype=np.float64),
+            joint_pos=np.asarray(obs["robot0_joint_pos"], dtype=np.float64),
+            step=step,
+            instruction=instruction,
+        )
 
 
 @runtime_checkable
 class Policy(Protocol):
     policy_id: str
-    replan_steps: Optional[int]
+    replan_steps: int | None
 
     def reset(self, episode: EpisodeInfo) -> None: ...
 
@@ -110,12 +116,16 @@ def validate_actions(actions, where: str = "policy") -> np.ndarray:
     if arr.ndim == 1 and arr.shape[0] == ACTION_DIM:
         arr = arr[None]
     if arr.ndim != 2 or arr.shape[1] != ACTION_DIM or arr.shape[0] < 1:
-        raise PolicyOutputError(f"{where}: expected actions of shape (H, {ACTION_DIM}) with H >= 1, got shape {arr.shape}")
+        raise PolicyOutputError(
+            f"{where}: expected actions of shape (H, {ACTION_DIM}) with H >= 1, got shape {arr.shape}"
+        )
     bad = ~np.isfinite(arr)
     if bad.any():
         row, col = map(int, np.argwhere(bad)[0])
-        raise PolicyOutputError(f"{where}: non-finite action value {arr[row, col]!r} at chunk index {row}, "
-                                f"dimension {col} ({int(bad.sum())} non-finite values)")
+        raise PolicyOutputError(
+            f"{where}: non-finite action value {arr[row, col]!r} at chunk index {row}, "
+            f"dimension {col} ({int(bad.sum())} non-finite values)"
+        )
     return arr
 
 

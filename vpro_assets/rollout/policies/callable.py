@@ -6,16 +6,14 @@ The attribute may be
 - a function `f(obs)` or `f(obs, episode)` returning actions ((H, 7) array, a dict with `actions`,
   or a PolicyOutput).
 """
+
 from __future__ import annotations
 
 import importlib
 import inspect
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.rollout.policies.base import EpisodeInfo
-from vpro_assets.rollout.policies.base import Observation
-from vpro_assets.rollout.policies.base import PolicyOutput
-from vpro_assets.rollout.policies.base import as_output
+from vpro_assets.rollout.policies.base import EpisodeInfo, Observation, PolicyOutput, as_output
 
 
 def load_attribute(target: str):
@@ -42,8 +40,11 @@ class FunctionPolicy:
     def __init__(self, fn, policy_id: str):
         self.fn, self.policy_id = fn, policy_id
         try:
-            params = [p for p in inspect.signature(fn).parameters.values()
-                      if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+            params = [
+                p
+                for p in inspect.signature(fn).parameters.values()
+                if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)
+            ]
             self._wants_episode = len(params) >= 2
         except (TypeError, ValueError):
             self._wants_episode = False

@@ -6,6 +6,7 @@ They need no model and make every code path of the runner run; `random` draws fr
 tasks from simulator state); it receives the live environment through `bind_env` (the one policy
 allowed to see it). None of them reads images, so all three run in render-free episodes.
 """
+
 from __future__ import annotations
 
 import logging

@@ -13,6 +13,7 @@ Two ways to use it:
   `bind_env(case_env)`), one action per call;
 - `PickPlaceController(sim, task).action()` gives the next 7-D action for the current state.
 """
+
 from __future__ import annotations
 
 import logging

@@ -19,6 +19,7 @@ predicted frames read.
 Every deviation is a `PolicyOutputError` naming the camera and the offending value: recorded
 as an infrastructure error, never a crash and never a policy failure.
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -52,9 +53,17 @@ def server_flag(metadata: Mapping, key: str, where: str) -> bool:
 
 
 def reset_message(episode: EpisodeInfo) -> dict:
-    return {KEY_RESET: True, "prompt": str(episode.instruction),
-            KEY_EPISODE: {"case_id": episode.case_id, "trial": int(episode.trial), "seed": int(episode.seed),
-                          "suite": episode.suite, "task": episode.task}}
+    return {
+        KEY_RESET: True,
+        "prompt": str(episode.instruction),
+        KEY_EPISODE: {
+            "case_id": episode.case_id,
+            "trial": int(episode.trial),
+            "seed": int(episode.seed),
+            "suite": episode.suite,
+            "task": episode.task,
+        },
+    }
 
 
 def _unpad_resize(frames: np.ndarray, height: int, width: int) -> np.ndarray:
@@ -66,35 +75,42 @@ def _unpad_resize(frames: np.ndarray, height: int, width: int) -> np.ndarray:
     ratio = max(width / size_w, height / size_h)
     inner_h, inner_w = int(height / ratio), int(width / ratio)
     top, left = max(0, (size_h - inner_h) // 2), max(0, (size_w - inner_w) // 2)
-    inner = np.ascontiguousarray(frames[:, top:top + inner_h, left:left + inner_w])
+    inner = np.ascontiguousarray(frames[:, top : top + inner_h, left : left + inner_w])
     return image_tools.resize_with_pad(inner, height, width)
 
 
-def decode_predicted_frames(reply: Mapping, shapes: Mapping[str, tuple], request_size: int,
-                            where: str) -> dict[str, np.ndarray]:
+def decode_predicted_frames(
+    reply: Mapping, shapes: Mapping[str, tuple], request_size: int, where: str
+) -> dict[str, np.ndarray]:
     """The reply's predicted frames in LIBERO's raw frame: camera -> (h, w, 3) uint8, or (K, h, w, 3).
 
     `shapes`: the raw shape of every camera the request showed (each must be predicted);
     `request_size`: the side of the square request images.
     """
     if KEY_FRAMES not in reply:
-        raise PolicyOutputError(f"{where}: reply has no {KEY_FRAMES!r} although the server declares "
-                                f"{FLAG_PREDICTS_FRAMES} (reply keys: {', '.join(sorted(map(str, reply)))})")
+        raise PolicyOutputError(
+            f"{where}: reply has no {KEY_FRAMES!r} although the server declares "
+            f"{FLAG_PREDICTS_FRAMES} (reply keys: {', '.join(sorted(map(str, reply)))})"
+        )
     frames = reply[KEY_FRAMES]
     if not isinstance(frames, Mapping):
-        raise PolicyOutputError(f"{where}: {KEY_FRAMES!r} must map camera names to uint8 arrays, "
-                                f"got a {type(frames).__name__}")
+        raise PolicyOutputError(
+            f"{where}: {KEY_FRAMES!r} must map camera names to uint8 arrays, got a {type(frames).__name__}"
+        )
     orientation = reply.get(KEY_ORIENTATION, "raw")
     if orientation not in TO_RAW:
         raise PolicyOutputError(f"{where}: {KEY_ORIENTATION} {orientation!r} is not one of {', '.join(TO_RAW)}")
     unknown = [str(cam) for cam in frames if cam not in CAMERAS]
     if unknown:
-        raise PolicyOutputError(f"{where}: predicted frame for unknown camera {unknown[0]!r}; "
-                                f"cameras are {', '.join(CAMERAS)}")
+        raise PolicyOutputError(
+            f"{where}: predicted frame for unknown camera {unknown[0]!r}; cameras are {', '.join(CAMERAS)}"
+        )
     missing = [cam for cam in shapes if cam not in frames]
     if missing:
-        raise PolicyOutputError(f"{where}: no predicted frame for camera {', '.join(missing)} "
-                                f"(predicted: {', '.join(map(str, frames)) or 'none'})")
+        raise PolicyOutputError(
+            f"{where}: no predicted frame for camera {', '.join(missing)} "
+            f"(predicted: {', '.join(map(str, frames)) or 'none'})"
+        )
     out = {}
     for cam, raw_shape in shapes.items():
         arr = np.asarray(frames[cam])
@@ -103,9 +119,11 @@ def decode_predicted_frames(reply: Mapping, shapes: Mapping[str, tuple], request
         stack = arr[None] if arr.ndim == 3 else arr
         allowed = (tuple(raw_shape), (request_size, request_size, 3))
         if stack.ndim != 4 or stack.shape[0] < 1 or stack.shape[1:] not in allowed:
-            raise PolicyOutputError(f"{where}: predicted frame for {cam} has shape {arr.shape}; expected "
-                                    f"(h, w, 3) or (K, h, w, 3) with (h, w, 3) = {allowed[0]} (the camera) or "
-                                    f"{allowed[1]} (the request image)")
+            raise PolicyOutputError(
+                f"{where}: predicted frame for {cam} has shape {arr.shape}; expected "
+                f"(h, w, 3) or (K, h, w, 3) with (h, w, 3) = {allowed[0]} (the camera) or "
+                f"{allowed[1]} (the request image)"
+            )
         if stack.shape[1:] != tuple(raw_shape):
             stack = _unpad_resize(stack, raw_shape[0], raw_shape[1])
         stack = np.ascontiguousarray(TO_RAW[orientation](stack))
