@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.clearance import lift_clear, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
@@ -30,6 +31,9 @@ TABLE_CLEARANCE_M = 0.008  # grip site at least this high above the object's bot
 ROBOT_BASE_XY = np.array([-0.66, 0.0])  # the arm stands at -x in every LIBERO scene
 FINGER_REACH_M = 0.045  # each open finger this far from the grip site along the closing axis
 WALL_SIDES = 16  # candidate sides of a wide object's wall
+HANDLE_MAX_M = 0.03  # a handle is thinner than this across
+SOLID_TOP_M = 0.025  # a geom over the centre reaching this close to the top makes the top solid
+HANDLE_LINK_M = 0.03  # thin parts this close together belong to one handle
 
 
 @dataclass(frozen=True)
@@ -63,6 +67,9 @@ def plan_grasp(world: World, instance: str) -> Grasp:
         point = mid + major * (proj_major.max() + proj_major.min()) / 2
         point[2] = z
         return Grasp(point, minor, width, rim=False)
+    handle = handle_grasp(world, instance, pts)
+    if handle is not None:
+        return handle
     # A wide object: pinch its wall, fingers closing radially, on the side nearest the robot where
     # the outer finger and the hand have room (a bowl in a drawer stands close to the drawer's wall).
     robot = np.append(ROBOT_BASE_XY - center[:2], 0.0)
@@ -85,6 +92,52 @@ def plan_grasp(world: World, instance: str) -> Grasp:
             best = (hits, grasp)
     assert best is not None  # WALL_SIDES candidates were scored
     return best[1]
+
+
+def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
+    """A grasp across a handle: a wide object whose top is solid (the wall pinch's inner finger
+    would stand in the object's own geoms, a moka pot) is taken by its thin parts that stick out
+    (collision geoms narrower than HANDLE_MAX_M across, clear of the object's largest geom)."""
+    center = (pts.min(0) + pts.max(0)) / 2
+    geoms = world.geoms(instance)
+    boxes = [(g, geom_corners(world.m, world.d, [g])) for g in geoms]
+    top = float(pts[:, 2].max())
+    solid_top = any(
+        np.all(np.abs((c.min(0) + c.max(0))[:2] / 2 - center[:2]) < (c.max(0) - c.min(0))[:2] / 2)
+        and c.max(0)[2] > top - SOLID_TOP_M
+        for _, c in boxes
+    )
+    if not solid_top:
+        return None
+    core = max((c for _, c in boxes), key=lambda c: float(np.prod((c.max(0) - c.min(0))[:2])))
+    core_lo, core_hi = core.min(0)[:2], core.max(0)[:2]
+    thin = []
+    for _, c in boxes:
+        size = c.max(0) - c.min(0)
+        outside = np.any(c.min(0)[:2] >= core_hi) or np.any(c.max(0)[:2] <= core_lo)
+        if min(size[0], size[1]) < HANDLE_MAX_M and outside:
+            thin.append(c)
+    if not thin:
+        return None
+    # Group the thin parts (a handle is several boxes) and take the tallest group (the handle, not a spout).
+    groups: list[list[np.ndarray]] = []
+    for c in sorted(
+        thin, key=lambda c: float(np.linalg.norm((c.min(0) + c.max(0))[:2] / 2 - center[:2])), reverse=True
+    ):
+        mid = (c.min(0) + c.max(0)) / 2
+        for group in groups:
+            if any(np.linalg.norm(mid[:2] - (o.min(0) + o.max(0))[:2] / 2) < HANDLE_LINK_M for o in group):
+                group.append(c)
+                break
+        else:
+            groups.append([c])
+    part = max((np.concatenate(g) for g in groups), key=lambda p: float(p[:, 2].max() - p[:, 2].min()))
+    lo, hi = part.min(0), part.max(0)
+    size = hi - lo
+    axis = np.array([1.0, 0.0, 0.0]) if size[0] < size[1] else np.array([0.0, 1.0, 0.0])
+    point = (lo + hi) / 2
+    point[2] = max(lo[2] + 0.3 * size[2], hi[2] - 0.02)
+    return Grasp(point, axis, float(min(size[0], size[1])), rim=False)
 
 
 def blocked_spots(boxes: np.ndarray, grasp: Grasp) -> int:
