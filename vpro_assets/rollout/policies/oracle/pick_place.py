@@ -62,8 +62,36 @@ def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
         axis = open_direction(world, joint)
         radius = float(np.max(world.box(held).size[:2])) / 2
         xy = (handle_point(world, joint) - axis * (DRAWER_FRONT_M + radius + 0.015))[:2]
+    else:
+        xy = free_spot(world, arg, (held, owner), xy)
     surface = support_height(world, xy, exclude=(held,))
     return Destination(xy, surface, owner, relation)
+
+
+def free_spot(world: World, region: str, skip: tuple[str, str], center: np.ndarray) -> np.ndarray:
+    """The point of a region nearest its centre where the held object does not land on another
+    movable object already there (libero_10's second moka pot on the stove). `skip`: the held
+    object and the region's owner."""
+    radius = float(np.max(world.box(skip[0]).size[:2])) / 2
+    others = [world.box(o) for o, _ in world.task.objects if o not in skip]
+    half = np.abs(world.site_mat(region) @ world.site_size(region))[:2]
+
+    def clearance(p: np.ndarray) -> float:
+        gaps = [
+            np.linalg.norm(np.maximum(np.maximum(b.lo[:2] - p, p - b.hi[:2]), 0.0))
+            for b in others
+            if np.all(np.abs(b.center[:2] - center) < half + 0.1)
+        ]
+        return min(gaps, default=np.inf)
+
+    if clearance(center) >= radius:
+        return center
+    steps = np.linspace(-1.0, 1.0, 9)
+    grid = [center + half * np.array([u, v]) * 0.8 for u in steps for v in steps]
+    fits = [p for p in grid if clearance(p) >= radius]
+    if fits:
+        return min(fits, key=lambda p: float(np.linalg.norm(p - center)))
+    return max(grid, key=clearance)
 
 
 def _drawer_region(world: World, arg: str) -> bool:
