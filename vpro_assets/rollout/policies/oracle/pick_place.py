@@ -62,7 +62,7 @@ def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
         axis = open_direction(world, joint)
         radius = float(np.max(world.box(held).size[:2])) / 2
         xy = (handle_point(world, joint) - axis * (DRAWER_FRONT_M + radius + 0.015))[:2]
-    else:
+    elif relation == "on":  # into a container the object may drop beside the others; onto a surface it may not
         xy = free_spot(world, arg, (held, owner), xy)
     surface = support_height(world, xy, exclude=(held,))
     return Destination(xy, surface, owner, relation)
