@@ -1,5 +1,6 @@
 """Settled starts, fingerprints, the drift check, and results that name their simulator
 (docs/simulator.md). Fast: three cheap Normal baselines, one trial each."""
+
 from __future__ import annotations
 
 import copy
@@ -72,10 +73,10 @@ def test_an_object_off_the_table_and_out_of_view_is_seen(catalog):
         assert scene.in_view(name) and not scene.off_table(scene.data.xpos[scene.objects[name]])
         joint = cenv.env.env.get_object(name).joints[0]
         adr = scene.model.jnt_qposadr[mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_JOINT, joint)]
-        scene.data.qpos[adr:adr + 3] = (0.0, 0.0, 0.5)  # under the table, below the camera's view
+        scene.data.qpos[adr : adr + 3] = (0.0, 0.0, 0.5)  # under the table, below the camera's view
         mujoco.mj_forward(scene.model, scene.data)
         assert scene.off_table(scene.data.xpos[scene.objects[name]])
-        scene.data.qpos[adr:adr + 3] = (0.0, 0.0, 3.0)  # thrown 2 m up: above the view
+        scene.data.qpos[adr : adr + 3] = (0.0, 0.0, 3.0)  # thrown 2 m up: above the view
         mujoco.mj_forward(scene.model, scene.data)
         assert not scene.in_view(name)
     finally:
@@ -130,25 +131,49 @@ def test_committed_fingerprints_match_this_environment_on_a_sample(catalog, sett
     """Under the simulator the fingerprints were taken with, the sample re-settles exactly."""
     prints = fp.load()
     if prints["simulator"] != simulator_versions():
-        pytest.fail(f"fingerprints taken under {prints['simulator']}, this environment is {simulator_versions()}: "
-                    "re-take them (docs/simulator.md)")
+        pytest.fail(
+            f"fingerprints taken under {prints['simulator']}, this environment is {simulator_versions()}: "
+            "re-take them (docs/simulator.md)"
+        )
     rows = fp.compare(prints, settled)
     assert all(r["status"] == "ok" and r["displacement_cm"] == 0.0 for r in rows), rows
 
 
 def _rows(run_id: str, mujoco_version: str) -> list[dict]:
-    return [{"run_id": run_id, "case_id": "libero_spatial-00/normal", "trial": t, "seed": t, "policy_id": "noop",
-             "suite": "libero_spatial", "task": "libero_spatial-00", "category": "normal", "level": "normal",
-             "status": "ok", "success": t % 2, "steps": 10,
-             "simulator": {"mujoco": mujoco_version, "robosuite": "1.4.1", "hf-libero": "0.1.4"}} for t in range(2)]
+    return [
+        {
+            "run_id": run_id,
+            "case_id": "libero_spatial-00/normal",
+            "trial": t,
+            "seed": t,
+            "policy_id": "noop",
+            "suite": "libero_spatial",
+            "task": "libero_spatial-00",
+            "category": "normal",
+            "level": "normal",
+            "status": "ok",
+            "success": t % 2,
+            "steps": 10,
+            "simulator": {"mujoco": mujoco_version, "robosuite": "1.4.1", "hf-libero": "0.1.4"},
+        }
+        for t in range(2)
+    ]
 
 
 def test_report_names_the_simulator_and_refuses_to_pool_two(tmp_path):
     db = tmp_path / "r.sqlite"
     with ResultsStore(db) as store:
         for run_id, version in (("a", "3.2.3"), ("b", "3.8.1")):
-            store.create_run(run_id, "noop", "noop", {"resolution": 256, "wait_steps": 10, "max_steps": {},
-                                                      "max_steps_override": None}, ["normal"], 2, {}, None)
+            store.create_run(
+                run_id,
+                "noop",
+                "noop",
+                {"resolution": 256, "wait_steps": 10, "max_steps": {}, "max_steps_override": None},
+                ["normal"],
+                2,
+                {},
+                None,
+            )
             for row in _rows(run_id, version):
                 store.record(row)
         assert store.episodes("a")[0]["simulator"]["mujoco"] == "3.2.3"
@@ -164,9 +189,18 @@ def test_report_names_the_simulator_and_refuses_to_pool_two(tmp_path):
 def test_episode_rows_record_the_worker_simulator():
     from vpro_assets.rollout.jobs import base_row
 
-    job = {"run_id": "r", "trial": 0, "policy_spec": "noop", "policy_options": {},
-           "case": {"id": "libero_spatial-00/normal", "suite": "libero_spatial", "task": "libero_spatial-00",
-                    "trial_seeds": [1]}}
+    job = {
+        "run_id": "r",
+        "trial": 0,
+        "policy_spec": "noop",
+        "policy_options": {},
+        "case": {
+            "id": "libero_spatial-00/normal",
+            "suite": "libero_spatial",
+            "task": "libero_spatial-00",
+            "trial_seeds": [1],
+        },
+    }
     assert base_row(job)["simulator"] == simulator_versions()
     assert simulator_versions()["mujoco"] == mujoco.__version__
 
@@ -198,8 +232,10 @@ def test_every_normal_start_under_this_simulator_is_as_documented(catalog):
     under the current pin exactly the four documented tasks do (about 25 minutes)."""
     version = mujoco.__version__
     if version not in STARTS_WITH_PROBLEMS:
-        pytest.fail(f"mujoco {version}: no documented settle result; run `vpro settle --select normal --trials 10` "
-                    "and record it in docs/simulator.md")
+        pytest.fail(
+            f"mujoco {version}: no documented settle result; run `vpro settle --select normal --trials 10` "
+            "and record it in docs/simulator.md"
+        )
     bad = {}
     for case in catalog["normal"]:
         for trial in range(len(case["trial_seeds"])):

@@ -2,6 +2,7 @@
 under the toolkit's pin) against a venv with the reference MuJoCo. Builds that venv once
 (scripts/make-sim-venv.sh, a few minutes; kept in out/sim-venvs/). Run with
 `.venv/bin/python -m pytest -m simulators tests/rollout/test_simulator_drift.py` (about 15 minutes)."""
+
 from __future__ import annotations
 
 import os
@@ -31,8 +32,9 @@ def reference_venv() -> Path:
 
 def _drift(venv: Path, tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
     env = dict(os.environ, VPRO_LIBERO_CONFIG_DIR=str(tmp_path / "libero-config"))
-    return subprocess.run([str(venv / "bin" / "vpro"), "drift", *args], capture_output=True, text=True, env=env,
-                          cwd=REPO, timeout=3600)
+    return subprocess.run(
+        [str(venv / "bin" / "vpro"), "drift", *args], capture_output=True, text=True, env=env, cwd=REPO, timeout=3600
+    )
 
 
 def test_drift_from_the_fingerprints_to_the_reference_simulator_lists_the_four_tasks(reference_venv, tmp_path):
@@ -46,8 +48,16 @@ def test_drift_from_the_fingerprints_to_the_reference_simulator_lists_the_four_t
 
 
 def test_a_drifted_case_gets_its_first_frames_side_by_side(reference_venv, tmp_path):
-    proc = _drift(reference_venv, tmp_path, "--select", "libero_10-00/normal", "--trials", "1",
-                  "--pictures", str(tmp_path / "pictures"))
+    proc = _drift(
+        reference_venv,
+        tmp_path,
+        "--select",
+        "libero_10-00/normal",
+        "--trials",
+        "1",
+        "--pictures",
+        str(tmp_path / "pictures"),
+    )
     assert proc.returncode == 1, proc.stdout + proc.stderr
     pictures = sorted((tmp_path / "pictures").glob("*.png"))
     assert [p.name for p in pictures] == ["libero_10-00__normal-trial0.png"]

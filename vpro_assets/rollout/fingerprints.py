@@ -6,6 +6,7 @@ A trial's fingerprint is bound to its inputs (the BDDL's and the initial-state f
 row, the seed): a case whose inputs changed has a stale fingerprint, reported as such and never
 compared as if it were the same scene.
 """
+
 from __future__ import annotations
 
 import json
@@ -32,9 +33,12 @@ def fingerprints_path() -> Path:
 
 def trial_fingerprint(record: Mapping) -> dict:
     """The part of a `settle_trial` record a fingerprint keeps."""
-    return {"seed": record["seed"], "init_row": record["inputs"]["init_row"],
-            "objects": {name: obj["pose"] for name, obj in sorted(record["objects"].items())},
-            "joints": dict(sorted(record["joints"].items()))}
+    return {
+        "seed": record["seed"],
+        "init_row": record["inputs"]["init_row"],
+        "objects": {name: obj["pose"] for name, obj in sorted(record["objects"].items())},
+        "joints": dict(sorted(record["joints"].items())),
+    }
 
 
 def build(records: Iterable[Mapping], simulator: Mapping, wait_steps: int, base: Mapping | None = None) -> dict:
@@ -49,15 +53,23 @@ def build(records: Iterable[Mapping], simulator: Mapping, wait_steps: int, base:
         if entry is None or entry["inputs"] != inputs:
             entry = cases[rec["case"]] = {"inputs": inputs, "trials": {}}
         entry["trials"] = {**entry["trials"], str(rec["trial"]): trial_fingerprint(rec)}
-    return {"schema_version": SCHEMA_VERSION, "simulator": dict(sorted(simulator.items())), "wait_steps": wait_steps,
-            "cases": dict(sorted(cases.items()))}
+    return {
+        "schema_version": SCHEMA_VERSION,
+        "simulator": dict(sorted(simulator.items())),
+        "wait_steps": wait_steps,
+        "cases": dict(sorted(cases.items())),
+    }
 
 
 def dumps(fingerprints: Mapping) -> str:
     """Canonical text: the header fields one per line, then one line per case (diffs name the case)."""
-    lines = [f" {json.dumps(k)}: {json.dumps(v, sort_keys=True)}," for k, v in sorted(fingerprints.items()) if k != "cases"]
-    cases = [f"  {json.dumps(cid)}: {json.dumps(entry, sort_keys=True, separators=(',', ':'))}"
-             for cid, entry in sorted(fingerprints["cases"].items())]
+    lines = [
+        f" {json.dumps(k)}: {json.dumps(v, sort_keys=True)}," for k, v in sorted(fingerprints.items()) if k != "cases"
+    ]
+    cases = [
+        f"  {json.dumps(cid)}: {json.dumps(entry, sort_keys=True, separators=(',', ':'))}"
+        for cid, entry in sorted(fingerprints["cases"].items())
+    ]
     return "{\n" + "\n".join(lines) + '\n "cases": {\n' + ",\n".join(cases) + "\n }\n}\n"
 
 
@@ -70,8 +82,9 @@ def load(path: Path | str | None = None) -> dict:
     try:
         data = json.loads(path.read_text())
     except FileNotFoundError:
-        raise VProError(f"{path}: no fingerprints; take them with `vpro settle --select normal --trials 10 "
-                        f"--fingerprints`") from None
+        raise VProError(
+            f"{path}: no fingerprints; take them with `vpro settle --select normal --trials 10 --fingerprints`"
+        ) from None
     except ValueError as exc:
         raise VProError(f"{path}: not valid JSON ({exc})") from None
     if data.get("schema_version") != SCHEMA_VERSION or not isinstance(data.get("cases"), dict):
@@ -86,20 +99,41 @@ def compare(fingerprints: Mapping, records: Iterable[Mapping], tolerances: Mappi
     rows: dict[str, dict] = {}
     for rec in records:
         cid = rec["case"]
-        row = rows.setdefault(cid, {"case": cid, "trials": 0, "displacement_cm": 0.0, "object": None, "tilt_deg": 0.0,
-                                    "tilt_object": None, "joint_change": 0.0, "joint": None, "worst_trial": None,
-                                    "status": "ok", "note": ""})
+        row = rows.setdefault(
+            cid,
+            {
+                "case": cid,
+                "trials": 0,
+                "displacement_cm": 0.0,
+                "object": None,
+                "tilt_deg": 0.0,
+                "tilt_object": None,
+                "joint_change": 0.0,
+                "joint": None,
+                "worst_trial": None,
+                "status": "ok",
+                "note": "",
+            },
+        )
         entry = fingerprints["cases"].get(cid)
         recorded = entry["trials"].get(str(rec["trial"])) if entry else None
         if recorded is None:
             row["status"], row["note"] = "missing", f"no fingerprint for trial {rec['trial']}"
             continue
         inputs = {"bddl": rec["inputs"]["bddl"], "init_states": rec["inputs"]["init_states"]}
-        if entry["inputs"] != inputs or recorded["init_row"] != rec["inputs"]["init_row"] or recorded["seed"] != rec["seed"]:
-            row["status"], row["note"] = "stale", "the case's BDDL, initial states or seed changed since the fingerprint"
+        if (
+            entry["inputs"] != inputs
+            or recorded["init_row"] != rec["inputs"]["init_row"]
+            or recorded["seed"] != rec["seed"]
+        ):
+            row["status"], row["note"] = (
+                "stale",
+                "the case's BDDL, initial states or seed changed since the fingerprint",
+            )
             continue
-        diff = pose_difference(rec, {"objects": {n: {"pose": p} for n, p in recorded["objects"].items()},
-                                     "joints": recorded["joints"]})
+        diff = pose_difference(
+            rec, {"objects": {n: {"pose": p} for n, p in recorded["objects"].items()}, "joints": recorded["joints"]}
+        )
         row["trials"] += 1
         if diff["displacement_cm"] > row["displacement_cm"]:
             row.update(displacement_cm=diff["displacement_cm"], object=diff["object"], worst_trial=rec["trial"])

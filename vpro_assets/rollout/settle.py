@@ -14,6 +14,7 @@ below a's, a contact and origins within 3 cm in x-y, which a bowl stacked on a r
 box never meets), and `On(a, region)` (LIBERO's regions are the 1 cm sampling boxes of the
 placement, which the recorded initial states themselves miss by up to 1.5 cm).
 """
+
 from __future__ import annotations
 
 import logging
@@ -23,6 +24,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from vpro_assets.core.mjgeom import colliding, geom_corners
 from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.episode import WAIT_STEPS
@@ -50,18 +52,15 @@ def _subtree(model, root: int) -> set[int]:
 
 
 def _colliding_geoms(model, bodies: set[int]) -> np.ndarray:
-    return np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] in bodies
-                     and (model.geom_contype[g] or model.geom_conaffinity[g])], dtype=int)
+    return np.array(colliding(model, [g for g in range(model.ngeom) if model.geom_bodyid[g] in bodies]), dtype=int)
 
 
 def _world_box(model, data, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Axis-aligned world box of some geoms (each geom's local bounding box, rotated and moved)."""
-    if geoms.size == 0:
+    """Axis-aligned world box of some geoms; no geom gives an empty (inverted) box."""
+    corners = geom_corners(model, data, geoms)
+    if not len(corners):
         return np.full(3, np.inf), np.full(3, -np.inf)
-    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
-    corners = signs[None] * model.geom_aabb[geoms, None, 3:] + model.geom_aabb[geoms, None, :3]  # (n, 8, 3)
-    world = np.einsum("nij,nkj->nki", data.geom_xmat[geoms].reshape(-1, 3, 3), corners) + data.geom_xpos[geoms, None]
-    return world.reshape(-1, 3).min(0), world.reshape(-1, 3).max(0)
+    return corners.min(0), corners.max(0)
 
 
 def _in_view(model, data, camera: int, points: np.ndarray) -> bool:
@@ -81,18 +80,29 @@ class _Scene:
         self.inner = env.env
         self.model, self.data = self.inner.sim.model._model, self.inner.sim.data._data
         self.objects = {name: self.inner.obj_body_id[name] for name in self.inner.objects_dict}
-        self.geoms = {name: _colliding_geoms(self.model, _subtree(self.model, body)) for name, body in self.objects.items()}
+        self.geoms = {
+            name: _colliding_geoms(self.model, _subtree(self.model, body)) for name, body in self.objects.items()
+        }
         self.joints = {}
         for joint in range(self.model.njnt):
             name = _name(self.model, mujoco.mjtObj.mjOBJ_JOINT, joint)
-            if self.model.jnt_type[joint] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE) \
-                    and not name.startswith(("robot0_", "gripper0_")):
+            if self.model.jnt_type[joint] in (
+                mujoco.mjtJoint.mjJNT_HINGE,
+                mujoco.mjtJoint.mjJNT_SLIDE,
+            ) and not name.startswith(("robot0_", "gripper0_")):
                 self.joints[name] = int(self.model.jnt_qposadr[joint])
         self.camera = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, VIEW_CAMERA)
         # The arena's table body: `table` (tabletop), `kitchen_table`, `living_room_table`, `study_table`;
         # LIBERO's floor scenes have none.
-        table = next((b for b in range(self.model.nbody) if _name(self.model, mujoco.mjtObj.mjOBJ_BODY, b).endswith("table")), None)
-        self.table = _world_box(self.model, self.data, _colliding_geoms(self.model, _subtree(self.model, table))) if table else None
+        table = next(
+            (b for b in range(self.model.nbody) if _name(self.model, mujoco.mjtObj.mjOBJ_BODY, b).endswith("table")),
+            None,
+        )
+        self.table = (
+            _world_box(self.model, self.data, _colliding_geoms(self.model, _subtree(self.model, table)))
+            if table
+            else None
+        )
 
     def off_table(self, pos: np.ndarray) -> bool:
         if self.table is None:
@@ -120,8 +130,12 @@ class _Scene:
                 geometric = self._on_object(a, b)
             elif b in self.inner.object_sites_dict:
                 geometric = self._on_region(a, b)
-        return {"relation": " ".join(state), "libero": libero, "geometric": geometric,
-                "holds": libero if geometric is None else geometric}
+        return {
+            "relation": " ".join(state),
+            "libero": libero,
+            "geometric": geometric,
+            "holds": libero if geometric is None else geometric,
+        }
 
     def _on_object(self, a: str, b: str) -> bool:
         """a touches b, a's centre of mass is above b's, a's origin is over b's footprint."""
@@ -129,15 +143,21 @@ class _Scene:
         lo, hi = _world_box(self.model, self.data, _colliding_geoms(self.model, _subtree(self.model, ib)))
         pos = self.data.xpos[ia]
         touching = self.inner.check_contact(self.inner.get_object(a), self.inner.get_object(b))
-        return bool(touching and self.data.xipos[ia][2] > self.data.xipos[ib][2]
-                    and lo[0] <= pos[0] <= hi[0] and lo[1] <= pos[1] <= hi[1])
+        return bool(
+            touching
+            and self.data.xipos[ia][2] > self.data.xipos[ib][2]
+            and lo[0] <= pos[0] <= hi[0]
+            and lo[1] <= pos[1] <= hi[1]
+        )
 
     def _on_region(self, a: str, region: str) -> bool:
         site = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, region)
         size = np.asarray(self.inner.object_sites_dict[region].size, dtype=np.float64)
         delta = self.data.site_xmat[site].reshape(3, 3) @ (self.data.xpos[self.objects[a]] - self.data.site_xpos[site])
-        return bool(np.all(np.abs(delta[:2]) <= size[:2] + REGION_XY_TOL_M)
-                    and REGION_Z_BAND_M[0] <= delta[2] - size[2] <= REGION_Z_BAND_M[1])
+        return bool(
+            np.all(np.abs(delta[:2]) <= size[:2] + REGION_XY_TOL_M)
+            and REGION_Z_BAND_M[0] <= delta[2] - size[2] <= REGION_Z_BAND_M[1]
+        )
 
 
 def settle_trial(case: Mapping, trial: int, wait_steps: int = WAIT_STEPS) -> dict:
@@ -159,15 +179,27 @@ def settle_trial(case: Mapping, trial: int, wait_steps: int = WAIT_STEPS) -> dic
         for name, body in scene.objects.items():
             speed, spin = scene.velocity(body)
             objects[name] = {
-                "pose": [round(float(v), POSE_DECIMALS) + 0.0 for v in (*scene.data.xpos[body], *scene.data.xquat[body])],
-                "speed": round(speed, 6), "spin": round(spin, 6), "left_table": left_table[name],
+                "pose": [
+                    round(float(v), POSE_DECIMALS) + 0.0 for v in (*scene.data.xpos[body], *scene.data.xquat[body])
+                ],
+                "speed": round(speed, 6),
+                "spin": round(spin, 6),
+                "left_table": left_table[name],
                 "out_of_view": not scene.in_view(name),
-                "out_of_view_steps": out_of_view[name]}
+                "out_of_view_steps": out_of_view[name],
+            }
         joints = {name: round(float(scene.data.qpos[adr]), POSE_DECIMALS) + 0.0 for name, adr in scene.joints.items()}
         relations = [scene.relation(list(state)) for state in scene.inner.parsed_problem["initial_state"]]
-        return {"case": case["id"], "trial": trial, "seed": int(case["trial_seeds"][trial]),
-                "inputs": dict(cenv.artifact_hashes), "wait_steps": wait_steps,
-                "objects": objects, "joints": joints, "relations": relations}
+        return {
+            "case": case["id"],
+            "trial": trial,
+            "seed": int(case["trial_seeds"][trial]),
+            "inputs": dict(cenv.artifact_hashes),
+            "wait_steps": wait_steps,
+            "objects": objects,
+            "joints": joints,
+            "relations": relations,
+        }
     finally:
         cenv.close()
 
@@ -204,8 +236,15 @@ def _tilt_deg(quat_a, quat_b) -> float:
 def pose_difference(a: Mapping, b: Mapping) -> dict:
     """Largest object displacement (cm, with its object), tilt change (deg) and joint change between
     two settled records of the same trial (`objects` with `pose`, `joints`)."""
-    worst: dict[str, Any] = {"displacement_cm": 0.0, "object": None, "tilt_deg": 0.0, "tilt_object": None,
-             "joint_change": 0.0, "joint": None, "missing": []}
+    worst: dict[str, Any] = {
+        "displacement_cm": 0.0,
+        "object": None,
+        "tilt_deg": 0.0,
+        "tilt_object": None,
+        "joint_change": 0.0,
+        "joint": None,
+        "missing": [],
+    }
     for name, obj in a["objects"].items():
         other = b["objects"].get(name)
         if other is None:
@@ -226,8 +265,9 @@ def pose_difference(a: Mapping, b: Mapping) -> dict:
     return worst
 
 
-def first_frames(case: Mapping, trial: int, recorded: Mapping, resolution: int = 256,
-                 wait_steps: int = WAIT_STEPS) -> tuple[np.ndarray, np.ndarray]:
+def first_frames(
+    case: Mapping, trial: int, recorded: Mapping, resolution: int = 256, wait_steps: int = WAIT_STEPS
+) -> tuple[np.ndarray, np.ndarray]:
     """The third-person first frame (upright) of a trial as it settles now, and the same frame with
     the objects and joints put where a fingerprint recorded them (`objects`: name -> pose, `joints`)."""
     cenv = env_for_case(case, trial, resolution=resolution, reuse=False)
@@ -240,11 +280,14 @@ def first_frames(case: Mapping, trial: int, recorded: Mapping, resolution: int =
         model = inner.sim.model._model
         state = np.asarray(cenv.env.get_sim_state(), dtype=np.float64).copy()  # time, qpos, qvel
         for name, pose in recorded["objects"].items():
-            joints = [j for j in inner.get_object(name).joints
-                      if model.jnt_type[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j)] == mujoco.mjtJoint.mjJNT_FREE]
+            joints = [
+                j
+                for j in inner.get_object(name).joints
+                if model.jnt_type[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j)] == mujoco.mjtJoint.mjJNT_FREE
+            ]
             if joints:
                 adr = model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joints[0])]
-                state[1 + adr:1 + adr + 7] = pose
+                state[1 + adr : 1 + adr + 7] = pose
         for name, value in recorded["joints"].items():
             joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
             if joint >= 0:
