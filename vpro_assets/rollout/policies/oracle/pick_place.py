@@ -78,11 +78,11 @@ def free_spot(world: World, region: str, skip: tuple[str, str], center: np.ndarr
 
     def clearance(p: np.ndarray) -> float:
         gaps = [
-            np.linalg.norm(np.maximum(np.maximum(b.lo[:2] - p, p - b.hi[:2]), 0.0))
+            float(np.linalg.norm(np.maximum(np.maximum(b.lo[:2] - p, p - b.hi[:2]), 0.0)))
             for b in others
             if np.all(np.abs(b.center[:2] - center) < half + 0.1)
         ]
-        return min(gaps, default=np.inf)
+        return min(gaps, default=float("inf"))
 
     if clearance(center) >= radius:
         return center
