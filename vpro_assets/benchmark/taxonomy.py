@@ -238,7 +238,8 @@ DISTRACTOR_RULES = {
 }
 
 
-def _build_settings() -> tuple[Setting, ...]:
+def _masking_settings() -> list[Setting]:
+    """Target Object, Target Receptacle and Interaction-Cue Masking."""
     out: list[Setting] = []
     for entity, cat in (("target", "target_object_masking"), ("receptacle", "target_receptacle_masking")):
         for ratio in MASK_RATIOS:
@@ -267,6 +268,12 @@ def _build_settings() -> tuple[Setting, ...]:
                 views="both",
             )
         )
+    return out
+
+
+def _corruption_settings() -> list[Setting]:
+    """Temporary Observation Corruption, frequency- and phase-triggered."""
+    out: list[Setting] = []
     for mode in ("blackout", "noise"):
         noise = NOISE_STD if mode == "noise" else None
         for level, prob in CORRUPTION_FREQUENCIES.items():
@@ -294,6 +301,12 @@ def _build_settings() -> tuple[Setting, ...]:
                     views="both",
                 )
             )
+    return out
+
+
+def _view_settings() -> list[Setting]:
+    """View Unavailability and Camera Staleness."""
+    out: list[Setting] = []
     for view in VIEWS:
         for replacement in ("single_view", "constant", "duplicate"):
             out.append(
@@ -339,6 +352,12 @@ def _build_settings() -> tuple[Setting, ...]:
                 replay_window=REPLAY_WINDOW,
             )
         )
+    return out
+
+
+def _evidence_settings() -> list[Setting]:
+    """Cross-View Contradiction and Prediction-Reality Divergence."""
+    out: list[Setting] = []
     for attribute, edit in CONTRADICTION_EDITS.items():
         for view in VIEWS:
             out.append(
@@ -360,6 +379,12 @@ def _build_settings() -> tuple[Setting, ...]:
             requires_predicted_frames=True,
         )
     )
+    return out
+
+
+def _scene_settings() -> list[Setting]:
+    """The scene categories: distractors, preconditions, ambiguity, geometry."""
+    out: list[Setting] = []
     for kind, rule in DISTRACTOR_RULES.items():
         out.append(_setting("task_relevant_distractors", kind, distractor=kind, rule=rule))
     for cat, physical in (("task_precondition_variation", True), ("visual_state_ambiguity", False)):
@@ -394,7 +419,12 @@ def _build_settings() -> tuple[Setting, ...]:
                     **{param: amount},
                 )
             )
-    return tuple(out)
+    return out
+
+
+def _build_settings() -> tuple[Setting, ...]:
+    """The 96 settings in taxonomy order (the order of the catalog's cases)."""
+    return (*_masking_settings(), *_corruption_settings(), *_view_settings(), *_evidence_settings(), *_scene_settings())
 
 
 SETTINGS: tuple[Setting, ...] = _build_settings()
