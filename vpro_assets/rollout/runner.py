@@ -48,6 +48,64 @@ def _catalog_sha(path: Path | None) -> str | None:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
+def _open_run(
+    store: ResultsStore,
+    results,
+    run_id: str | None,
+    resume: bool,
+    policy_spec: str,
+    pid: str,
+    settings: EpisodeSettings,
+    selection: Sequence[str],
+    trials: int,
+) -> str:
+    """The run to record into: the one to resume (same options), or a new one."""
+    if resume:
+        run_id = run_id or store.latest_run_id()
+        run = store.run(run_id) if run_id else None
+        if run is None or run_id is None:
+            raise VProError(f"{results}: no run {run_id!r} to resume" if run_id else f"{results}: no run to resume")
+        if run["policy_spec"] != policy_spec or run["settings"] != settings.to_json():
+            raise VProError(
+                f"run {run_id} was started with policy {run['policy_spec']!r} and settings "
+                f"{run['settings']}; resume it with the same options"
+            )
+    else:
+        run_id = run_id or new_run_id(pid)
+        if store.run(run_id) is not None:
+            raise VProError(f"{results}: run {run_id!r} exists; continue it with --resume")
+        store.create_run(
+            run_id,
+            policy_spec,
+            pid,
+            settings.to_json(),
+            list(selection),
+            trials,
+            library_versions(),
+            _catalog_sha(paths.catalog_path()),
+        )
+    return run_id
+
+
+def _pending_jobs(
+    store: ResultsStore, run_id: str, cases: Sequence[dict], trials: int, retry_errors: bool, job_args: tuple
+) -> list[dict]:
+    """The episodes not recorded yet, those of one task side by side."""
+    done = store.done_keys(run_id, include_errors=not retry_errors)
+    jobs = []
+    for case in cases:
+        for trial in range(trials):
+            if (case["id"], trial) in done:
+                continue
+            job = make_job(run_id, case, trial, *job_args)
+            job["prior_attempts"] = store.attempts(run_id, case["id"], trial)
+            jobs.append(job)
+    # Episodes of one task side by side: a worker reuses its env between them (reset, as LIBERO does).
+    order = {t: i for i, t in reversed(list(enumerate(c["task"] for c in cases)))}
+    jobs.sort(key=lambda j: order[j["case"]["task"]])
+    return jobs
+
+
 def run_eval(
     cases: Sequence[dict],
     *,
@@ -79,42 +137,10 @@ def run_eval(
     pid = policy_label(policy_spec, policy_options)
     started = time.monotonic()
     with ResultsStore(results) as store:
-        if resume:
-            run_id = run_id or store.latest_run_id()
-            run = store.run(run_id) if run_id else None
-            if run is None:
-                raise VProError(f"{results}: no run {run_id!r} to resume" if run_id else f"{results}: no run to resume")
-            if run["policy_spec"] != policy_spec or run["settings"] != settings.to_json():
-                raise VProError(
-                    f"run {run_id} was started with policy {run['policy_spec']!r} and settings "
-                    f"{run['settings']}; resume it with the same options"
-                )
-        else:
-            run_id = run_id or new_run_id(pid)
-            if store.run(run_id) is not None:
-                raise VProError(f"{results}: run {run_id!r} exists; continue it with --resume")
-            store.create_run(
-                run_id,
-                policy_spec,
-                pid,
-                settings.to_json(),
-                list(selection),
-                trials,
-                library_versions(),
-                _catalog_sha(paths.catalog_path()),
-            )
-        done = store.done_keys(run_id, include_errors=not retry_errors)
-        jobs = []
-        for case in cases:
-            for trial in range(trials):
-                if (case["id"], trial) in done:
-                    continue
-                job = make_job(run_id, case, trial, policy_spec, policy_options, settings, retries, retry_delay)
-                job["prior_attempts"] = store.attempts(run_id, case["id"], trial)
-                jobs.append(job)
-        # Episodes of one task side by side: a worker reuses its env between them (reset, as LIBERO does).
-        order = {t: i for i, t in reversed(list(enumerate(c["task"] for c in cases)))}
-        jobs.sort(key=lambda j: order[j["case"]["task"]])
+        run_id = _open_run(store, results, run_id, resume, policy_spec, pid, settings, selection, trials)
+        jobs = _pending_jobs(
+            store, run_id, cases, trials, retry_errors, (policy_spec, policy_options, settings, retries, retry_delay)
+        )
         skipped = len(cases) * trials - len(jobs)
         log.info("run %s: %d episode(s) to run, %d already recorded", run_id, len(jobs), skipped)
         if on_plan:
