@@ -19,6 +19,7 @@ def _fmt(value) -> str:
     return "-" if value is None else f"`{value}`"
 
 
+# Long on purpose: the document's sections in reading order, one block each.
 def render_taxonomy_doc(catalog: dict | None = None) -> str:
     catalog = catalog or build_catalog()
     counts = Counter((c["setting"], c["suite"]) for c in catalog["cases"])

@@ -251,6 +251,7 @@ def _row(
     }
 
 
+# Long on purpose: the table's columns and its legend, in print order.
 def markdown_table(rows: list[dict], meta: dict) -> str:
     lines = [
         "### Observation perturbations: step time against the clean env (`vpro bench perturb`)",

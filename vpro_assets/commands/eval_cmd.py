@@ -16,6 +16,7 @@ from vpro_assets.rollout.episode import MAX_STEPS, EpisodeSettings
 from vpro_assets.rollout.runner import run_eval
 
 
+# Long on purpose: one declaration per option, in --help order.
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "eval",
@@ -114,14 +115,9 @@ def outcome_summary(tally: Counter) -> str:
     return text + (f", {tally['unavailable']} unavailable" if tally["unavailable"] else "")
 
 
-def run_eval_cmd(args) -> int:
-
-    if args.workers < 1:
-        raise VProError(f"--workers must be at least 1, got {args.workers}")
-    if args.retries < 0:
-        raise VProError(f"--retries must be 0 or more, got {args.retries}")
+def episode_settings(args) -> EpisodeSettings:
     override, per_suite = parse_max_steps(args.max_steps)
-    settings = EpisodeSettings(
+    return EpisodeSettings(
         resolution=args.resolution,
         wait_steps=args.wait_steps,
         max_steps=per_suite,
@@ -129,6 +125,45 @@ def run_eval_cmd(args) -> int:
         video_dir=str(args.video) if args.video else None,
         render=not args.no_render,
     )
+
+
+class EpisodeProgress:
+    """The progress bar of a run, made once the runner knows how many episodes are left."""
+
+    def __init__(self, enabled: bool):
+        self.enabled = enabled
+        self.bar: tqdm | None = None
+        self.tally: Counter = Counter()
+
+    def plan(self, todo: int, skipped: int) -> None:
+        self.bar = tqdm(
+            total=todo + skipped,
+            initial=skipped,
+            desc="vpro eval",
+            unit="episode",
+            disable=not self.enabled,
+            dynamic_ncols=True,
+        )
+        if skipped:
+            tqdm.write(f"vpro eval: {skipped} episode(s) already recorded, {todo} to run", file=sys.stderr)
+
+    def row(self, row: dict) -> None:
+        self.tally.update(episode_outcome(row))
+        if self.bar is not None:
+            self.bar.set_postfix_str(outcome_summary(self.tally), refresh=False)
+            self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def run_eval_cmd(args) -> int:
+    if args.workers < 1:
+        raise VProError(f"--workers must be at least 1, got {args.workers}")
+    if args.retries < 0:
+        raise VProError(f"--retries must be 0 or more, got {args.retries}")
+    settings = episode_settings(args)
     catalog = load_catalog(paths.catalog_path())
     cases = select_cases(catalog, args.select)
     if not cases:
@@ -145,28 +180,7 @@ def run_eval_cmd(args) -> int:
         f"({args.workers} worker(s)) -> {args.results}",
         file=sys.stderr,
     )
-    bars: list[tqdm] = []  # made once the runner knows how many episodes are left
-    tally: Counter = Counter()
-
-    def on_plan(todo: int, skipped: int) -> None:
-        bars.append(
-            tqdm(
-                total=todo + skipped,
-                initial=skipped,
-                desc="vpro eval",
-                unit="episode",
-                disable=args.no_progress,
-                dynamic_ncols=True,
-            )
-        )
-        if skipped:
-            tqdm.write(f"vpro eval: {skipped} episode(s) already recorded, {todo} to run", file=sys.stderr)
-
-    def on_row(row: dict) -> None:
-        tally.update(episode_outcome(row))
-        bars[0].set_postfix_str(outcome_summary(tally), refresh=False)
-        bars[0].update(1)
-
+    progress = EpisodeProgress(enabled=not args.no_progress)
     summary = run_eval(
         cases,
         results=args.results,
@@ -183,11 +197,10 @@ def run_eval_cmd(args) -> int:
         retries=args.retries,
         retry_delay=args.retry_delay,
         selection=args.select,
-        on_plan=on_plan,
-        on_row=on_row,
+        on_plan=progress.plan,
+        on_row=progress.row,
     )
-    for bar in bars:
-        bar.close()
+    progress.close()
     counts = ", ".join(f"{n} {k}" for k, n in sorted(summary.counts.items())) or "no rows"
     print(
         f"vpro eval: run {summary.run_id}: {summary.recorded} episode(s) recorded in {summary.elapsed:.0f} s; "

@@ -48,6 +48,7 @@ def _bars(ax, labels, series, hatches=None):
     ax.set_ylabel("success rate (%)")
 
 
+# Long on purpose: one block per figure, in the order the report shows them.
 def write_plots(rows: list[dict], out: Path) -> list[Path]:
     plt = _plt()
     out.mkdir(parents=True, exist_ok=True)

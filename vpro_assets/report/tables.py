@@ -284,6 +284,7 @@ def suites_table(rows: list[dict]) -> Table:
     return table
 
 
+# Long on purpose: the list of the paper's tables, in the report's order.
 def all_tables(rows: list[dict]) -> list[Table]:
     phases = {p: p.replace("_", "-") for p in tx.PHASES}
     return [
