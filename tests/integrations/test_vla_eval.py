@@ -40,6 +40,7 @@ from vpro_assets.libero.env import NOOP_ACTION  # noqa: E402
 from vpro_assets.report.vla_eval_results import read_vla_eval, to_row  # noqa: E402
 from vpro_assets.report.write import write_report  # noqa: E402
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode  # noqa: E402
+from vpro_assets.rollout.policies.oracle.policy import OraclePolicy  # noqa: E402
 
 VLA_EVAL = str(Path(sys.executable).with_name("vla-eval"))
 BENCHMARK = "vpro_assets.integrations.vla_eval.benchmark:LiberoVProBenchmark"
@@ -361,9 +362,7 @@ def test_scene_case_same_episode_as_in_process(tmp_path, scene_out, monkeypatch)
 
 @pytest.mark.slow
 def test_oracle_full_episode_replayed_through_vla_eval_has_the_same_outcome(tmp_path):
-    from vpro_assets.rollout.policies.scripted import ScriptedPolicy
-
-    oracle = Replay(None, inner=ScriptedPolicy())
+    oracle = Replay(None, inner=OraclePolicy())
     assert run_episode(case(NORMAL), 0, oracle, EpisodeSettings())["success"], "the oracle solves trial 0"
     # vla-eval's model servers send float32 actions (PredictModelServer): the deterministic policy
     # compared on both paths is the oracle's episode in float32, replayed.

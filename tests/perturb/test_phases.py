@@ -9,7 +9,7 @@ from vpro_assets.libero.env import libero_init_states, make_env
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.perturb import PerturbedEnv
 from vpro_assets.perturb.phases import ALL_PHASES
-from vpro_assets.rollout.policies.scripted import ScriptedPolicy
+from vpro_assets.rollout.policies.scripted import PickPlaceController
 
 MAX_STEPS = 260
 
@@ -20,11 +20,10 @@ def scripted_rollout(key: str):
     try:
         wrapped = PerturbedEnv(env, None, task)
         wrapped.reset(trial=0, init_state=libero_init_states(task)[0])
-        policy = ScriptedPolicy()
-        policy.bind_env(type("Bound", (), {"sim": property(lambda self: env.sim), "task": task})())
+        policy = PickPlaceController(env.sim, task)
         stages = []
         for _ in range(MAX_STEPS):
-            action = policy.next_action()
+            action = policy.action()
             stages.append(policy.stage)
             wrapped.step(action)
             if policy.stage == "done":

@@ -1,23 +1,19 @@
-"""A scripted pick-and-place controller from privileged simulator state (the `oracle` policy).
+"""A single pick-and-place waypoint controller from privileged simulator state.
 
 It reads the target's and receptacle's geometry from the simulation (never the images) and moves
 the grip site through waypoints with OSC_POSE delta actions, orientation held:
 above the target -> down to the grasp point -> close -> lift -> over the receptacle -> down ->
 open -> up. Wide, low targets (bowls, plates) are pinched at the rim along the fingers' axis;
-others are grasped at the top. Useful as a reference policy (`vpro eval --policy oracle`), to
-drive real rollouts through every manipulation phase in tests, and for previews. It does not
-solve every task (no drawers, no knobs, no multi-object goals beyond the first placement).
+others are grasped at the top. Its named stages make it the fixed, predictable motion that previews,
+`vpro bench` and the perturbation tests drive (a stage per manipulation phase). The `oracle` policy
+of `vpro eval`, which solves every goal, is `vpro_assets.rollout.policies.oracle`.
 
-Two ways to use it:
-- `ScriptedPolicy` implements the rollout layer's policy protocol (`reset`, `act`, `close`,
-  `bind_env(case_env)`), one action per call;
-- `PickPlaceController(sim, task).action()` gives the next 7-D action for the current state.
+`PickPlaceController(sim, task).action()` gives the next 7-D action for the current state.
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -25,6 +21,7 @@ import numpy as np
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.mjgeom import colliding, world_aabb
 from vpro_assets.perturb.entities import EntityIndex
+from vpro_assets.rollout.policies.oracle.world import Box
 
 log = logging.getLogger(__name__)
 
@@ -36,20 +33,6 @@ HOVER_M = 0.10
 LIFT_M = 0.12
 GRIPPER_STEPS = 12  # control steps to close or open the fingers
 MAX_STAGE_STEPS = 120
-
-
-@dataclass
-class Box:
-    lo: np.ndarray
-    hi: np.ndarray
-
-    @property
-    def center(self) -> np.ndarray:
-        return (self.lo + self.hi) / 2
-
-    @property
-    def size(self) -> np.ndarray:
-        return self.hi - self.lo
 
 
 def world_box(model, data, geoms) -> Box:
@@ -165,41 +148,3 @@ class PickPlaceController:
     def _done(self) -> np.ndarray:
         self.stage = "done"
         return np.array([0, 0, 0, 0, 0, 0, -1.0])
-
-
-class ScriptedPolicy:
-    """The `oracle` reference policy: privileged-state pick and place, one action per call."""
-
-    policy_id = "oracle"
-    replan_steps = 1
-
-    def __init__(self, **_ignored):
-        self._env = None
-        self._controller: PickPlaceController | None = None
-
-    def bind_env(self, case_env) -> None:
-        """Receive the live environment (an object with `.sim` and `.task`)."""
-        self._env = case_env
-        self._controller = None
-
-    def reset(self, episode=None) -> None:
-        self._controller = None
-
-    def act(self, obs=None):
-        from vpro_assets.perturb.prediction import PolicyOutput
-
-        return PolicyOutput(self.next_action()[None])
-
-    def next_action(self) -> np.ndarray:
-        if self._env is None:
-            raise VProError("the scripted policy needs the live env: call bind_env(case_env) first")
-        if self._controller is None or self._controller.sim is not self._env.sim:
-            self._controller = PickPlaceController(self._env.sim, self._env.task)
-        return self._controller.action()
-
-    @property
-    def stage(self) -> str | None:
-        return self._controller.stage if self._controller else None
-
-    def close(self) -> None:
-        self._env = None

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.core.mjgeom import colliding, geom_corners
+from vpro_assets.core.mjgeom import colliding, geom_corners, world_aabb
 from vpro_assets.libero.env import GRIPPER_PREFIX
 from vpro_assets.libero.tasks import TaskRecord
 from vpro_assets.perturb.entities import GRIP_SITE, Entity, object_entity
@@ -31,6 +31,9 @@ class SkillFailed(VProError):
 
 @dataclass(frozen=True)
 class Box:
+    """A world axis-aligned box (`core.mjgeom.world_aabb`): the oracle's and the scripted
+    controller's view of an object's extent."""
+
     lo: np.ndarray
     hi: np.ndarray
 
@@ -113,8 +116,7 @@ class World:
         return geom_corners(self.m, self.d, self.geoms(instance))
 
     def box(self, instance: str) -> Box:
-        pts = self.points(instance)
-        return Box(pts.min(0), pts.max(0))
+        return Box(*world_aabb(self.m, self.d, self.geoms(instance)))
 
     def body_pos(self, instance: str) -> np.ndarray:
         """LIBERO's position of an object: its `<instance>_main` body (what On and In test)."""
