@@ -3,6 +3,7 @@
 Layout (one concept per module, in pipeline order):
 - `rendering`    one camera frame from robosuite's render context, optionally with a scene edit;
                  `RenderHook` routes robosuite's own camera renders through it
+- `occluders`    the geoms that can cover an entity in a camera, and the pixel window it can occupy
 - `capture`      the entities' part of the scene the env drew, drawn again as a segmentation mask
 - `entities`     target, receptacle, gripper and articulated parts as MuJoCo ids of one sim
 - `phases`       manipulation phase tracker (approach, grasp, transport, pre_placement, placed)

@@ -18,8 +18,9 @@ import numpy as np
 from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.core.seeding import rng
 from vpro_assets.libero.task_record import TaskRecord
-from vpro_assets.perturb.capture import Capture, CaptureRenderer, windows_may_meet
+from vpro_assets.perturb.capture import Capture, CaptureRenderer
 from vpro_assets.perturb.entities import EntityIndex
+from vpro_assets.perturb.occluders import windows_may_meet
 from vpro_assets.perturb.phases import PhaseState
 from vpro_assets.perturb.rendering import SceneEdit, render_context, render_geom_ids
 

@@ -27,7 +27,8 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.perturb.capture import Capture, GeomHulls, capture, decode_ids, drawable_geoms
+from vpro_assets.perturb.capture import Capture, capture, decode_ids
+from vpro_assets.perturb.occluders import GeomHulls, drawable_geoms
 
 log = logging.getLogger(__name__)
 
