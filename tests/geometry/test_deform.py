@@ -36,7 +36,8 @@ def test_maps_move_points_only_horizontally_and_keep_the_solid_closed(refined_bo
 
     vertices, faces = manifold_arrays(refined_box)
     frame = upright_frame("+z", vertices, vertices.mean(axis=0))
-    warp = deformation_map(deformation, amount, frame)
+    extra = {"twist_ellipticity": 0.18} if deformation == "twist" else {}
+    warp = deformation_map(deformation, amount, frame, **extra)
     moved = warp(vertices)
     np.testing.assert_allclose(moved[:, 2], vertices[:, 2], atol=1e-12)  # heights untouched
     assert np.abs(moved - vertices).max() > 1e-3  # and it does move
@@ -44,8 +45,38 @@ def test_maps_move_points_only_horizontally_and_keep_the_solid_closed(refined_bo
     v, f = manifold_arrays(deformed)
     mesh = trimesh.Trimesh(v, f, process=False)
     assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
-    if deformation == "twist":  # a rotation of every slice keeps the volume (up to facet chords)
-        assert mesh.volume == pytest.approx(refined_box.volume(), rel=0.02)
+    if deformation == "twist":  # turning keeps each slice's area, the ellipse scales it by (1 +- e)^2 at most
+        assert (1 - 0.18) ** 2 < mesh.volume / refined_box.volume() < (1 + 0.18) ** 2
+
+
+def test_twist_makes_a_round_slice_elliptical_then_turns_it():
+    angles = np.radians(np.arange(0, 360, 15))
+    ring = np.stack([0.03 * np.cos(angles), 0.03 * np.sin(angles)], axis=1)
+    bottom, top = np.c_[ring, np.zeros(len(ring))], np.c_[ring, np.full(len(ring), 0.1)]
+    vertices = np.concatenate([bottom, top])
+    frame = upright_frame("+z", vertices, np.zeros(3))
+    moved = deformation_map("twist", 60.0, frame, twist_ellipticity=0.18)(vertices)
+    radii = np.linalg.norm(moved[:, :2], axis=1)
+    assert radii.max() == pytest.approx(0.03 * 1.18) and radii.min() == pytest.approx(0.03 * 0.82)
+    # the long axis of the bottom ellipse at -30 degrees, of the top one at +30 degrees
+    for points, degrees in ((moved[: len(ring)], -30.0), (moved[len(ring) :], 30.0)):
+        far = points[np.argmax(np.linalg.norm(points[:, :2], axis=1))]
+        assert np.degrees(np.arctan2(far[1], far[0])) % 180 == pytest.approx(degrees % 180)
+    unchanged = deformation_map("twist", 60.0, frame)(vertices)  # no ellipse: a ring stays a ring
+    np.testing.assert_allclose(np.linalg.norm(unchanged[:, :2], axis=1), 0.03)
+
+
+@pytest.mark.parametrize(
+    "deformation, extra, message",
+    [
+        ("twist", {"twist_ellipticity": 0.7}, "twist_ellipticity=0.7 is outside"),
+        ("taper", {"twist_ellipticity": 0.1}, "taper has no parameter 'twist_ellipticity'"),
+        ("twist", {"twist_ellipticity": True}, "twist_ellipticity=True"),
+    ],
+)
+def test_bad_extra_parameters_are_refused(deformation, extra, message):
+    with pytest.raises(InvalidParameterError, match=message):
+        check_amount(deformation, 40.0 if deformation == "twist" else 0.7, **extra)
 
 
 def test_taper_keeps_mid_height_and_scales_top_against_bottom():
@@ -74,13 +105,17 @@ def test_bad_amounts_and_names_are_refused(deformation, amount):
 
 def test_every_taxonomy_geometry_setting_has_a_valid_amount():
     from vpro_assets.benchmark.taxonomy import settings_of
-    from vpro_assets.geometry.deform import amount_of
+    from vpro_assets.geometry.deform import amount_of, extra_params_of
 
     settings = settings_of("target_geometry_variation")
     assert len(settings) == 12
     for setting in settings:
         params = setting.param_dict
-        check_amount(params["deformation"], amount_of(params["deformation"], params))
+        check_amount(
+            params["deformation"],
+            amount_of(params["deformation"], params),
+            **extra_params_of(params["deformation"], params),
+        )
     assert set(DEFORMATIONS) == {s.param_dict["deformation"] for s in settings}
 
 

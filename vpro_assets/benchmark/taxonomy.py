@@ -8,6 +8,7 @@ setting does means bumping its version, which changes its id and every case id b
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -228,6 +229,10 @@ GEOMETRY_SEVERITY = {  # deformation magnitude per severity level 1, 2, 3
     "twist": ("twist_degrees", (20.0, 40.0, 60.0)),  # rotation of the top vs the bottom
     "asymmetric": ("bulge", (0.10, 0.20, 0.30)),  # one-sided bulge, fraction of radius
 }
+# Twist first makes each slice elliptical (r scaled by 1 + e cos 2 phi), so that round targets
+# change shape too; version 2 (version 1 only rotated the slices: cans, bowls, plates unchanged).
+TWIST_ELLIPTICITY = (0.06, 0.12, 0.18)
+GEOMETRY_VERSIONS = {"taper": 1, "multipeak": 1, "twist": 2, "asymmetric": 1}
 DISTRACTOR_RULES = {
     "same_category": "another instance of a LIBERO object of the target's category, different model or texture",
     "same_color": "a different LIBERO object recoloured with the target's dominant material colour",
@@ -410,15 +415,16 @@ def _scene_settings() -> list[Setting]:
         )
     for deformation, (param, amounts) in GEOMETRY_SEVERITY.items():
         for severity, amount in enumerate(amounts, start=1):
-            out.append(
-                _setting(
-                    "target_geometry_variation",
-                    f"{deformation}-s{severity}",
-                    deformation=deformation,
-                    severity=severity,
-                    **{param: amount},
-                )
+            extra = {"twist_ellipticity": TWIST_ELLIPTICITY[severity - 1]} if deformation == "twist" else {}
+            setting = _setting(
+                "target_geometry_variation",
+                f"{deformation}-s{severity}",
+                deformation=deformation,
+                severity=severity,
+                **{param: amount},
+                **extra,
             )
+            out.append(dataclasses.replace(setting, version=GEOMETRY_VERSIONS[deformation]))
     return out
 
 

@@ -97,6 +97,8 @@ def render_taxonomy_doc(catalog: dict | None = None) -> str:
         f"{tx.REPLAY_START - 1}.",
         f"- Cross-view position contradiction: the target drawn {tx.CONTRADICTION_OFFSET_M:g} m away in one view.",
         "- Geometry severities: " + "; ".join(f"{k} {p} {v}" for k, (p, v) in tx.GEOMETRY_SEVERITY.items()) + ".",
+        f"- Twist (version 2) first makes each slice elliptical, r scaled by 1 + e cos 2 phi with e in "
+        f"{tx.TWIST_ELLIPTICITY}, so round targets change shape too (docs/geometry.md).",
         "- Distractor rules: " + "; ".join(f"`{k}`: {v}" for k, v in tx.DISTRACTOR_RULES.items()) + ".",
         "",
         "## Tasks",

@@ -10,7 +10,11 @@ the vertical axis through the solid's centroid:
 
 - taper:      horizontal offsets scaled by s(t) = (1 + (k - 1) t) * 2 / (1 + k), k = top_scale
               (the top is k times the bottom; mid-height keeps its size, so volume stays close);
-- twist:      slice rotated by theta(t) = twist_degrees * (t - 1/2) (volume preserving);
+- twist:      slice made elliptical, r scaled by 1 + e cos(2 phi), e = twist_ellipticity, then
+              rotated by theta(t) = twist_degrees * (t - 1/2): a twisted elliptic column. The
+              ellipse makes it a change of shape for round targets too (a rotation alone leaves a
+              solid of revolution where it was); its width seen from any side now varies with
+              height. Area of each slice grows by e^2/2;
 - multipeak:  r scaled by 1 + a cos(5 phi), a = peak_amplitude (five lobes, volume +a^2/2);
 - asymmetric: r scaled by 1 + b max(0, cos(phi - phi0))^2 * 4 t (1 - t), b = bulge, phi0 = 0
               (one side bulges, most at mid-height; bottom and top outlines unchanged).
@@ -26,6 +30,8 @@ import numpy as np
 from vpro_assets.core.errors import InvalidParameterError
 
 MULTIPEAK_LOBES = 5
+TWIST_LOBES = 2  # an ellipse: the lobe count whose silhouette width changes as the slice turns
+# (an odd count gives a shape of nearly constant width, whose outline hardly shows the twist)
 BULGE_AZIMUTH_DEG = 0.0  # towards the first horizontal axis of the object's upright frame
 
 # deformation -> (parameter name, identity value, allowed open interval)
@@ -34,6 +40,11 @@ DEFORMATIONS: dict[str, tuple[str, float, tuple[float, float]]] = {
     "multipeak": ("peak_amplitude", 0.0, (-0.5, 0.5)),
     "twist": ("twist_degrees", 0.0, (-360.0, 360.0)),
     "asymmetric": ("bulge", 0.0, (-0.5, 1.0)),
+}
+# deformation -> {extra parameter: (identity value, allowed open interval)}; a setting that omits
+# one gets its identity value (only twist has one: the ellipticity of its cross-section).
+EXTRA_PARAMS: dict[str, dict[str, tuple[float, tuple[float, float]]]] = {
+    "twist": {"twist_ellipticity": (0.0, (-0.5, 0.5))},
 }
 AXES = {"+x": (0, 1.0), "-x": (0, -1.0), "+y": (1, 1.0), "-y": (1, -1.0), "+z": (2, 1.0), "-z": (2, -1.0)}
 
@@ -70,15 +81,23 @@ def upright_frame(up_axis: str, vertices: np.ndarray, centroid: np.ndarray) -> U
     return UprightFrame(rotation, origin, float(heights.max() - heights.min()))
 
 
-def check_amount(deformation: str, amount: float) -> None:
+def check_amount(deformation: str, amount: float, **extra: float) -> None:
     if deformation not in DEFORMATIONS:
         raise InvalidParameterError(f"deformation {deformation!r} is not one of {', '.join(DEFORMATIONS)}")
-    name, _identity, (lo, hi) = DEFORMATIONS[deformation]
-    if not (isinstance(amount, (int, float)) and np.isfinite(amount) and lo < amount < hi):
-        raise InvalidParameterError(f"{deformation} {name}={amount!r} is outside ({lo}, {hi})")
+    name, _identity, bounds = DEFORMATIONS[deformation]
+    allowed = EXTRA_PARAMS.get(deformation, {})
+    for key in extra:
+        if key not in allowed:
+            raise InvalidParameterError(f"{deformation} has no parameter {key!r} (has {', '.join([name, *allowed])})")
+    for key, value in ((name, amount), *extra.items()):
+        lo, hi = bounds if key == name else allowed[key][1]
+        if isinstance(value, bool) or not (isinstance(value, (int, float)) and np.isfinite(value) and lo < value < hi):
+            raise InvalidParameterError(f"{deformation} {key}={value!r} is outside ({lo}, {hi})")
 
 
-def _upright_map(deformation: str, amount: float) -> Callable[[np.ndarray, float], np.ndarray]:
+def _upright_map(
+    deformation: str, amount: float, extra: Mapping[str, float]
+) -> Callable[[np.ndarray, float], np.ndarray]:
     def apply(p: np.ndarray, height: float) -> np.ndarray:
         t = np.clip(p[:, 2] / height, 0.0, 1.0) if height > 0 else np.zeros(len(p))
         x, y = p[:, 0], p[:, 1]
@@ -86,6 +105,8 @@ def _upright_map(deformation: str, amount: float) -> Callable[[np.ndarray, float
             scale = (1.0 + (amount - 1.0) * t) * 2.0 / (1.0 + amount)
             nx, ny = x * scale, y * scale
         elif deformation == "twist":
+            ellipse = 1.0 + extra["twist_ellipticity"] * np.cos(TWIST_LOBES * np.arctan2(y, x))
+            x, y = x * ellipse, y * ellipse
             theta = np.radians(amount) * (t - 0.5)
             c, s = np.cos(theta), np.sin(theta)
             nx, ny = c * x - s * y, s * x + c * y
@@ -102,10 +123,14 @@ def _upright_map(deformation: str, amount: float) -> Callable[[np.ndarray, float
     return apply
 
 
-def deformation_map(deformation: str, amount: float, frame: UprightFrame) -> Callable[[np.ndarray], np.ndarray]:
-    """The map object coordinates -> deformed object coordinates, vectorised over (N, 3)."""
-    check_amount(deformation, amount)
-    upright = _upright_map(deformation, float(amount))
+def deformation_map(
+    deformation: str, amount: float, frame: UprightFrame, **extra: float
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The map object coordinates -> deformed object coordinates, vectorised over (N, 3); `extra`
+    holds the deformation's other parameters (EXTRA_PARAMS; omitted ones take their identity)."""
+    check_amount(deformation, amount, **extra)
+    defaults = {key: identity for key, (identity, _bounds) in EXTRA_PARAMS.get(deformation, {}).items()}
+    upright = _upright_map(deformation, float(amount), {**defaults, **{k: float(v) for k, v in extra.items()}})
 
     def warp(points: np.ndarray) -> np.ndarray:
         points = np.asarray(points, dtype=np.float64)
@@ -123,6 +148,18 @@ def amount_of(deformation: str, params: Mapping[str, object]) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InvalidParameterError(f"{deformation}: {name} must be a number, got {value!r}")
     return float(value)
+
+
+def extra_params_of(deformation: str, params: Mapping[str, object]) -> dict[str, float]:
+    """The deformation's other parameters (EXTRA_PARAMS) present in a setting's params."""
+    out = {}
+    for name in EXTRA_PARAMS.get(deformation, {}):
+        if name in params:
+            value = params[name]
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise InvalidParameterError(f"{deformation}: {name} must be a number, got {value!r}")
+            out[name] = float(value)
+    return out
 
 
 def displacement_measure(points: np.ndarray, warp: Callable[[np.ndarray], np.ndarray], size: float) -> float:

@@ -18,7 +18,8 @@ Output layout under `out_dir` (every path below is listed with its sha256 in the
     <name>/<name>.xml, <name>/<name>.urdf, <name>/<name>.usda, <name>/record.json
     <name>/meshes/visual<i>_<sha>.obj, solid_<sha>.obj, hull_<sha>.obj
     textures/<texture stem>_<sha>.png          (shared by every object made from one texture)
-with `<name>` = `vpro_<category>_<deformation>_s<severity>_v<generator version>`.
+with `<name>` = `vpro_<category>_<deformation>_s<severity>_v<setting version>` (the taxonomy's
+GEOMETRY_VERSIONS: a deformation whose map changes gets a new version, the others keep their names).
 
 Visual meshes keep the original texture coordinates and carry their normals through the map
 (n' = J^-T n); the collision hulls, the solid and the exports are built from the deformed solid.
@@ -90,7 +91,8 @@ UP_AXES: Mapping[str, str] = {
 
 
 def object_name(category: str, deformation: str, severity: int) -> str:
-    return f"vpro_{category}_{deformation}_s{severity}_v{GENERATOR_VERSION}"
+    # The setting's version, so a changed deformation (twist v2) renames only its own objects.
+    return f"vpro_{category}_{deformation}_s{severity}_v{geometry_setting(deformation, severity).version}"
 
 
 def geometry_setting(deformation: str, severity: int) -> Setting:

@@ -60,8 +60,8 @@ def repair_solid(category: str, xml_path: Path, up: str) -> Original:
     return Original(source, solid, v0, f0, reports, extent, max_edge, frame)
 
 
-def deform(original: Original, deformation: str, amount: float, what: str) -> Deformed:
-    warp = deform_mod.deformation_map(deformation, amount, original.frame)
+def deform(original: Original, deformation: str, amount: float, what: str, **extra: float) -> Deformed:
+    warp = deform_mod.deformation_map(deformation, amount, original.frame, **extra)
     solid = original.solid.warp_batch(lambda points: warp(np.asarray(points)))
     if solid.status() != manifold3d.Error.NoError or solid.volume() <= 0:
         raise MeshError(f"{what} broke the solid ({solid.status()})")
@@ -102,8 +102,9 @@ def build_object(
     with _timed(timings, "manifold_repair"):
         original = repair_solid(category, xml_path, up)
         amount = deform_mod.amount_of(deformation, setting.param_dict)
+        extra = deform_mod.extra_params_of(deformation, setting.param_dict)
     with _timed(timings, "deformation"):
-        deformed = deform(original, deformation, amount, f"{category}: {deformation} severity {severity}")
+        deformed = deform(original, deformation, amount, f"{category}: {deformation} severity {severity}", **extra)
     with _timed(timings, "coacd"):
         hulls = convex_hulls(original, deformed, coacd_params, f"{category} {deformation} s{severity}")
     with _timed(timings, "write"):
