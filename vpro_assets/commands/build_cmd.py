@@ -68,7 +68,10 @@ def run_build(args) -> int:
             stages[k] = stages.get(k, 0.0) + v
     split = ", ".join(f"{k} {v:.1f} s" for k, v in stages.items())
     wall = time.perf_counter() - started
+    peak = max((r.peak_rss_mb for r in results), default=0.0)
     print(f"{built} built, {unchanged} unchanged, {len(failed)} failed in {wall:.1f} s ({split})", file=sys.stderr)
+    if peak:
+        print(f"peak memory of a worker: {peak:.0f} MB", file=sys.stderr)
     if args.timings:
         write_text_atomic(
             args.timings,
@@ -77,12 +80,14 @@ def run_build(args) -> int:
                     "wall_seconds": round(wall, 1),
                     "jobs": args.jobs,
                     "stage_seconds": {k: round(v, 1) for k, v in stages.items()},
+                    "peak_rss_mb_per_worker": round(peak),
                     "cases": [
                         {
                             "case": r.case_id,
                             "status": r.status,
                             "seconds": round(r.seconds, 2),
                             "stages": {k: round(v, 2) for k, v in r.stages.items()},
+                            "peak_rss_mb": round(r.peak_rss_mb),
                             "error": r.error,
                         }
                         for r in results

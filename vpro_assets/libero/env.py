@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import atexit
-import importlib
 import logging
 import weakref
 from collections.abc import Iterator
@@ -13,6 +12,7 @@ import numpy as np
 
 from vpro_assets.core.errors import InvalidParameterError
 from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero import physics
 from vpro_assets.libero.init_states import read_init_states
 from vpro_assets.libero.names import CAMERAS, GRIPPER_PREFIX  # noqa: F401 (re-exported)
 from vpro_assets.libero.tasks import TaskRecord
@@ -29,22 +29,15 @@ def make_env(
     """LIBERO's own `OffScreenRenderEnv` for a task (or another BDDL file of the same task).
 
     `render=False`: LIBERO's `ControlEnv` without an offscreen renderer or camera observations,
-    the same physics (the settle measurement checks that the states agree) at no render cost."""
+    the same physics at no render cost, its hard resets reusing the compiled model
+    (`vpro_assets.libero.physics`)."""
     if not isinstance(resolution, int) or not 16 <= resolution <= 2048:
         raise InvalidParameterError(f"resolution must be an integer in 16..2048, got {resolution!r}")
     envs = libero_bridge.libero_envs()
     bddl = bddl_file or str(libero_bridge.bddl_path(task.suite, task.name))
     if not render:
         log.info("building %s (%s) without rendering", task.key, bddl)
-        control_env = importlib.import_module("libero.libero.envs.env_wrapper").ControlEnv
-        return control_env(
-            bddl_file_name=bddl,
-            has_renderer=False,
-            has_offscreen_renderer=False,
-            use_camera_obs=False,
-            camera_names=list(CAMERAS),
-            **kwargs,
-        )
+        return physics.physics_env(bddl, camera_names=list(CAMERAS), **kwargs)
     log.info("building %s (%s) at %dx%d", task.key, bddl, resolution, resolution)
     env = envs.OffScreenRenderEnv(
         bddl_file_name=bddl, camera_heights=resolution, camera_widths=resolution, camera_names=list(CAMERAS), **kwargs

@@ -39,6 +39,7 @@ from vpro_assets.scene import bddl_doc, case_key, plugins, sim, state_files
 from vpro_assets.scene.base_scene import BaseScene, base_scene
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.init_gen import trial_state
+from vpro_assets.scene.stages import StageClock, peak_rss_mb
 from vpro_assets.scene.variant import GeneratedObject, SceneVariant
 
 log = logging.getLogger(__name__)
@@ -52,6 +53,8 @@ class CaseResult:
     stages: dict = field(default_factory=dict)
     error: str = ""
     files: dict = field(default_factory=dict)  # relative path -> sha256
+    physics: dict = field(default_factory=dict)  # stage -> seconds of MuJoCo in it (inside physics.metered())
+    peak_rss_mb: float = 0.0  # the worker's largest resident memory when the case ended
 
 
 def ensure_objects(generated: list[GeneratedObject], case_id: str, stages: dict | None = None) -> dict[str, Path]:
@@ -91,38 +94,41 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
     started = time.perf_counter()
     cid = case["id"]
     generator = plugins.generator_for(case)
-    stages: dict[str, float] = {}
+    clock = StageClock()
     key = case_key.input_hash(case, generator)  # cheap: no simulation, so a warm rebuild is quick
     if not force:
         meta = case_key.current_meta(cid, key)
         if meta is not None:
-            return CaseResult(cid, "unchanged", time.perf_counter() - started, stages, files=meta["files"])
-    t = time.perf_counter()
-    base = base_scene(case["task"])
-    stages["base_scene"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    variant = generator.fn(GenContext(case=case, base=base))
-    ensure_objects(variant.generated_objects, cid, stages)
+            return CaseResult(cid, "unchanged", time.perf_counter() - started, files=meta["files"])
+    with clock.stage("base_scene"):
+        base = base_scene(case["task"])
     # "generate" includes the object_* stages (mesh work of generated objects).
-    stages["generate"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    text = bddl_doc.render_variant(
-        base.bddl,
-        case_id=cid,
-        generator=f"{generator.name}-v{generator.version}",
-        base_task=case["task"],
-        summary=variant.summary,
-        objects=variant.objects,
-        fixtures=variant.fixtures,
-        regions=variant.regions,
-        init=variant.init,
+    with clock.stage("generate"):
+        variant = generator.fn(GenContext(case=case, base=base))
+        ensure_objects(variant.generated_objects, cid, clock.wall)
+    with clock.stage("bddl"):
+        text = bddl_doc.render_variant(
+            base.bddl,
+            case_id=cid,
+            generator=f"{generator.name}-v{generator.version}",
+            base_task=case["task"],
+            summary=variant.summary,
+            objects=variant.objects,
+            fixtures=variant.fixtures,
+            regions=variant.regions,
+            init=variant.init,
+        )
+        bddl_doc.check_variant(text, base.bddl, cid)
+    hashes = _write_case(case, key, generator, base, variant, text, clock)
+    return CaseResult(
+        cid,
+        "built",
+        time.perf_counter() - started,
+        clock.wall,
+        files=hashes,
+        physics=clock.physics,
+        peak_rss_mb=peak_rss_mb(),
     )
-    bddl_doc.check_variant(text, base.bddl, cid)
-    stages["bddl"] = time.perf_counter() - t
-    hashes = _write_case(case, key, generator, base, variant, text, stages)
-    return CaseResult(cid, "built", time.perf_counter() - started, stages, files=hashes)
 
 
 def _write_case(
@@ -132,7 +138,7 @@ def _write_case(
     base: BaseScene,
     variant: SceneVariant,
     text: str,
-    stages: dict[str, float],
+    clock: StageClock,
 ) -> dict[str, str]:
     """Settle the trials' initial states in LIBERO's env of the variant and publish the case's
     files (BDDL, initial states, meta.json) at once; return {file name: sha256}."""
@@ -143,7 +149,7 @@ def _write_case(
     try:
         bddl_path = tmp / _bddl_name(base.task)
         bddl_path.write_text(text)
-        states = _trial_states(bddl_path, case, base, variant, stages)
+        states = _trial_states(bddl_path, case, base, variant, clock)
         files = {
             _bddl_name(base.task): text.encode(),
             f"{base.task.name}.pruned_init": state_files.libero_init_bytes(states),
@@ -161,22 +167,20 @@ def _write_case(
     return hashes
 
 
-def _trial_states(
-    bddl_path: Path, case: dict, base: BaseScene, variant: SceneVariant, stages: dict[str, float]
-) -> np.ndarray:
+def _trial_states(bddl_path: Path, case: dict, base: BaseScene, variant: SceneVariant, clock: StageClock) -> np.ndarray:
     """One accepted initial state per trial seed, in LIBERO's env of the variant's BDDL."""
-    t = time.perf_counter()
-    env = sim.physics_env(str(bddl_path))
-    stages["variant_env"] = time.perf_counter() - t
-    t = time.perf_counter()
+    with clock.stage("variant_env"):
+        env = sim.physics_env(str(bddl_path))
     try:
-        rows = [
-            trial_state(env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k], fixture_seed=seed)
-            for k, seed in enumerate(case["trial_seeds"])
-        ]
+        with clock.stage("settle"):
+            rows = [
+                trial_state(
+                    env, variant, base.rows[base.trial_rows[k]], base.slots, k, base.layouts[k], fixture_seed=seed
+                )
+                for k, seed in enumerate(case["trial_seeds"])
+            ]
     finally:
         env.close()
-    stages["settle"] = time.perf_counter() - t
     return np.stack(rows)
 
 

@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.mjgeom import colliding, world_aabb
-from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero import physics
 from vpro_assets.libero.env import NOOP_ACTION
 
 log = logging.getLogger(__name__)
@@ -25,15 +25,12 @@ DROP_TOL = 0.05  # m: an object this far below the surface the others rest on ha
 DRIFT_TOL = 0.01  # m: validation: one second of zero actions moves no object further than this
 
 
-def physics_env(bddl_file: str):
-    """LIBERO's ControlEnv for a BDDL file, without cameras or renderer (physics only)."""
-    libero_bridge.libero_envs()
-    from libero.libero.envs.env_wrapper import ControlEnv
-
+def physics_env(bddl_file: str, fresh: bool = False):
+    """LIBERO's ControlEnv for a BDDL file, without cameras or renderer (physics only; its reset
+    reuses the model compiled at construction: `vpro_assets.libero.physics`). `fresh`: compiled
+    at construction even where the same MJCF was compiled before in this process."""
     # ignore_done: building steps one env through many trials, past LIBERO's 1000-step horizon.
-    env = ControlEnv(
-        bddl_file_name=str(bddl_file), use_camera_obs=False, has_offscreen_renderer=False, ignore_done=True
-    )
+    env = physics.physics_env(str(bddl_file), fresh=fresh, ignore_done=True)
     env.reset()
     return env
 
@@ -109,8 +106,9 @@ def body_layout(env) -> dict[str, dict]:
 
 
 def settle(env, steps: int = SETTLE_STEPS) -> None:
+    """`steps` control steps of zero actions (the physics of LIBERO's step, no observations)."""
     for _ in range(steps):
-        raw(env).step(NOOP_ACTION)
+        physics.physics_step(env, NOOP_ACTION)
 
 
 def free_object_state(env) -> dict[str, tuple[np.ndarray, np.ndarray]]:

@@ -51,7 +51,8 @@ def validate_case(case: dict) -> Validation:
         return result
     result.problems += _file_problems(case, found)
     try:
-        env = sim.physics_env(str(found["bddl"]))
+        # fresh: compiled at construction, so get_xml() below is this scene's (vpro_assets.libero.physics)
+        env = sim.physics_env(str(found["bddl"]), fresh=True)
     except Exception as exc:
         result.problems.append(f"LIBERO cannot build the env from {found['bddl'].name}: {type(exc).__name__}: {exc}")
         result.seconds = time.perf_counter() - started

@@ -1,0 +1,191 @@
+"""Render-free LIBERO envs: the physics of a scene without a renderer, camera observations or
+repeated model compiles. One mechanism for everything that needs no pixel: the scene build (base
+scene, variant env, settling), `vpro validate` and render-free episodes (`vpro eval --no-render`).
+
+- `physics_env(bddl_file, **kwargs)`: LIBERO's `ControlEnv` without offscreen renderer or camera
+  observations. robosuite's `reset()` is a hard reset: it rebuilds the MJCF and compiles it again
+  every time (about 2.5 s for a LIBERO scene on this machine). Compiles of such an env go through
+  a process-wide cache keyed by the sha256 of the MJCF text: the same text gives a copy of the
+  model compiled before (`mj_copyModel`: the same bytes as a new compile, so the same physics),
+  and the fixture placement LIBERO writes into the model at each reset lands on a fresh copy,
+  exactly as on a fresh compile. The same BDDL gives the same MJCF, so the trials of a case and
+  the reset after construction reuse one compile.
+- `physics_step(env, action)`: robosuite's control step (`MujocoEnv.step`) for the physics only:
+  the same controller calls and MuJoCo steps in the same order, without what only an observer
+  reads (observables updated at every substep, observations, reward and success). robosuite runs
+  `mj_forward` before the controller at every substep, and the controller's own update runs it
+  again on the same state, so the first is skipped: the same state, bit for bit.
+- `reference()`: a context in which both are off (every reset compiles, every step is robosuite's
+  own), the path tests and `vpro bench build` compare against.
+
+A model copied from the cache was not parsed last, so MuJoCo's `mj_saveLastXML` (robosuite's
+`sim.model.get_xml()`) would write the spec of whatever was parsed last: an env built with
+`physics_env(..., fresh=True)` compiles at construction (its resets still reuse that compile), so
+right after it is built, `get_xml()` is its own scene's (what `vpro validate` checks).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import hashlib
+import importlib
+import logging
+import time
+from collections import OrderedDict
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import mujoco
+
+from vpro_assets.libero import bridge as libero_bridge
+
+log = logging.getLogger(__name__)
+
+MODEL_CACHE_SIZE = 2  # compiled models kept per process (a LIBERO scene model is tens of MB)
+
+
+@dataclass
+class PhysicsCounters:
+    """Model compiles in this process (how many, their seconds, copies taken from the cache) and,
+    inside `metered()`, the seconds spent in MuJoCo's mj_step and mj_forward."""
+
+    compiles: int = 0
+    compile_seconds: float = 0.0
+    cache_hits: int = 0
+    mj_seconds: float = 0.0
+
+    def physics_seconds(self) -> float:
+        """What a stage needs of MuJoCo: compiling its models and stepping them."""
+        return self.compile_seconds + self.mj_seconds
+
+
+COUNTERS = PhysicsCounters()
+_MODELS: OrderedDict[str, mujoco.MjModel] = OrderedDict()
+_FAST = [True]
+
+
+@contextlib.contextmanager
+def reference() -> Iterator[None]:
+    """Turn the model cache and the physics-only step off (robosuite's own path) inside the block."""
+    before = _FAST[0]
+    _FAST[0] = False
+    try:
+        yield
+    finally:
+        _FAST[0] = before
+
+
+def fast() -> bool:
+    return _FAST[0]
+
+
+@contextlib.contextmanager
+def metered() -> Iterator[None]:
+    """Count the seconds of every mj_step and mj_forward (robosuite's, the controller's, ours) in
+    `COUNTERS.mj_seconds` inside the block (`vpro bench build`; a timer call per MuJoCo call)."""
+    real = {name: getattr(mujoco, name) for name in ("mj_step", "mj_forward")}
+
+    def timed(fn):
+        def call(*args):
+            started = time.perf_counter()
+            try:
+                return fn(*args)
+            finally:
+                COUNTERS.mj_seconds += time.perf_counter() - started
+
+        return call
+
+    for name, fn in real.items():
+        setattr(mujoco, name, timed(fn))
+    try:
+        yield
+    finally:
+        for name, fn in real.items():
+            setattr(mujoco, name, fn)
+
+
+def clear_model_cache() -> None:
+    _MODELS.clear()
+
+
+def compiled_model(xml: str, fresh: bool = False) -> mujoco.MjModel:
+    """A model compiled from `xml`: a copy of the cached one where this text was compiled before
+    (`fresh`: compiled again all the same, and cached)."""
+    key = hashlib.sha256(xml.encode()).hexdigest()
+    cached = _MODELS.get(key) if _FAST[0] and not fresh else None
+    if cached is not None:
+        _MODELS.move_to_end(key)
+        COUNTERS.cache_hits += 1
+        return copy.copy(cached)  # mj_copyModel
+    started = time.perf_counter()
+    model = mujoco.MjModel.from_xml_string(xml)
+    COUNTERS.compiles += 1
+    COUNTERS.compile_seconds += time.perf_counter() - started
+    if _FAST[0]:
+        _MODELS[key] = copy.copy(model)  # kept pristine: LIBERO writes fixture placements into `model`
+        while len(_MODELS) > MODEL_CACHE_SIZE:
+            _MODELS.popitem(last=False)
+    return model
+
+
+class _CachedMjSim:
+    """Stands in for robosuite's `MjSim` name inside `robosuite.environments.base` while a
+    render-free env compiles: `from_xml_string` goes through `compiled_model`."""
+
+    def __init__(self, fresh: bool):
+        self.fresh = fresh
+
+    def from_xml_string(self, xml: str):
+        binding = importlib.import_module("robosuite.utils.binding_utils")
+        return binding.MjSim(compiled_model(xml, self.fresh))
+
+
+@contextlib.contextmanager
+def _compiles_through_cache(fresh: bool = False) -> Iterator[None]:
+    base = importlib.import_module("robosuite.environments.base")
+    real = getattr(base, "MjSim")  # noqa: B009 (robosuite is untyped here)
+    setattr(base, "MjSim", _CachedMjSim(fresh))  # noqa: B010
+    try:
+        yield
+    finally:
+        setattr(base, "MjSim", real)  # noqa: B010
+
+
+def physics_env(bddl_file: str, fresh: bool = False, **kwargs):
+    """LIBERO's ControlEnv for a BDDL file without renderer or camera observations, whose compiles
+    (construction and every hard reset) go through the model cache (module docstring); `fresh`:
+    the construction compiles in any case."""
+    libero_bridge.libero_envs()
+    control_env = importlib.import_module("libero.libero.envs.env_wrapper").ControlEnv
+    kwargs = {"has_renderer": False, "has_offscreen_renderer": False, "use_camera_obs": False, **kwargs}
+    with _compiles_through_cache(fresh):
+        env = control_env(bddl_file_name=str(bddl_file), **kwargs)
+    inner = env.env
+    initialize = inner._initialize_sim
+
+    def initialize_sim(xml_string=None):
+        with _compiles_through_cache():
+            initialize(xml_string)
+
+    inner._initialize_sim = initialize_sim  # robosuite's own code, its compile through the cache
+    return env
+
+
+def physics_step(env, action) -> None:
+    """One control step of LIBERO's env (the wrapper or the robosuite env inside), physics only
+    (module docstring); robosuite's own `step` inside `reference()`."""
+    inner = getattr(env, "env", env)
+    if not _FAST[0]:
+        inner.step(action)
+        return
+    model, data = inner.sim.model._model, inner.sim.data._data
+    inner.timestep += 1
+    policy_step = True
+    for _ in range(int(inner.control_timestep / inner.model_timestep)):
+        # The controller's update runs mj_forward on this state before it reads anything.
+        inner._pre_action(action, policy_step)
+        mujoco.mj_step(model, data)
+        policy_step = False
+    inner.cur_time += inner.control_timestep
+    inner._post_process()  # LIBERO's object states (a stove turned on), as its _post_action does
