@@ -13,7 +13,7 @@ stamp="$venv/.sim-ready"
 python=${PYTHON:-python3}
 "$python" -m venv "$venv"
 "$venv/bin/pip" install --quiet --upgrade pip wheel setuptools
-# The toolkit's declared dependencies, with the mujoco pin replaced.
+# The toolkit's declared dependencies (base, the simulator extra and tests), with the mujoco pin replaced.
 mapfile -t deps < <("$venv/bin/python" - "$repo/pyproject.toml" <<'PY'
 import re, sys
 try:
@@ -22,7 +22,8 @@ except ImportError:  # Python 3.10
     from pip._vendor import tomli as tomllib
 with open(sys.argv[1], "rb") as f:
     project = tomllib.load(f)["project"]
-for dep in project["dependencies"] + project["optional-dependencies"]["test"]:
+extras = project["optional-dependencies"]
+for dep in project["dependencies"] + extras["sim"] + extras["test"]:
     if re.split(r"[<>=!~\[; ]", dep, maxsplit=1)[0].lower() != "mujoco":
         print(dep)
 PY
