@@ -23,6 +23,7 @@ COMMAND_MODULES = (
     "vpro_assets.commands.pack_cmd",
     "vpro_assets.commands.import_cmd",
     "vpro_assets.commands.eval_cmd",
+    "vpro_assets.commands.certify_cmd",
     "vpro_assets.commands.report_cmd",
     "vpro_assets.commands.preview_cmd",
     "vpro_assets.commands.bench_cmd",

@@ -6,6 +6,7 @@ import json
 import sys
 from pathlib import Path
 
+from vpro_assets.benchmark import certificate as cert
 from vpro_assets.benchmark.catalog import build_catalog, find_case, load_catalog, verify_catalog, write_catalog
 from vpro_assets.benchmark.lock import check_built
 from vpro_assets.core import paths
@@ -41,6 +42,12 @@ def add_parser(sub) -> None:
         action="store_true",
         help="also check every scene artifact built in out/ against the sha256 the catalog records",
     )
+    v.add_argument(
+        "--certificate",
+        type=Path,
+        default=None,
+        help="solvability certificate to check against the catalog (default: solvability.json, when present)",
+    )
     v.set_defaults(run=run_verify)
     s = csub.add_parser("show", help="print one case's record", description="Print one case (or Normal baseline).")
     s.add_argument("case", help="case id, e.g. libero_goal-03/camera_staleness/wrist-delay2-v1")
@@ -72,6 +79,7 @@ def run_verify(args) -> int:
             f"{paths.out_dir()}",
             file=sys.stderr,
         )
+    diffs = diffs + certificate_problems(committed, path, getattr(args, "certificate", None))
     if diffs:
         for line in diffs[:MAX_SHOWN]:
             print(f"DIFFERS {line}", file=sys.stderr)
@@ -85,6 +93,19 @@ def run_verify(args) -> int:
         f"{t['categories']} categories, {t['dimensions']} dimensions, {t['tasks']} tasks)"
     )
     return 0
+
+
+def certificate_problems(catalog: dict, catalog_file: Path, given: Path | None) -> list[str]:
+    """Why the solvability certificate does not belong to this catalog (none: it does, or there is none)."""
+    path = given or cert.certificate_path()
+    if given is None and not path.is_file():
+        return []
+    problems = cert.check(cert.load(path), catalog, catalog_file)
+    if problems:
+        return [f"{path}: {p}" for p in problems] + [f"{path}: refused; certify again with `vpro certify --resume`"]
+    certified, total = cert.coverage(cert.load(path), catalog)
+    print(f"{path}: belongs to this catalog ({certified} of {total} certifiable cases certified)", file=sys.stderr)
+    return []
 
 
 def run_show(args) -> int:

@@ -1,0 +1,221 @@
+"""A certification run: the oracle, render-free, on Normal baselines and scene cases through `vpro
+eval`'s runner (run id `certify` of a results database, so `--resume` and the backends are the
+runner's), then every failed trial replayed to read why, and the certificate and its document
+written from all the rows of that run.
+
+Replays are kept beside the database (`<results>.replays.json`, keyed by case, trial and final-state
+fingerprint), so writing again after `--resume` replays only new failures. The first failed trial of
+a case is replayed rendered for its picture (a contact sheet in `docs/solvability/`); the others
+render-free.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import statistics
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from vpro_assets.benchmark import certificate as cert
+from vpro_assets.benchmark.lock import lock_path
+from vpro_assets.core.atomic import write_text_atomic
+from vpro_assets.core.errors import VProError
+from vpro_assets.core.hashing import canonical_json, sha256_file
+from vpro_assets.core.images import write_png
+from vpro_assets.report import solvability
+from vpro_assets.rollout.case_env import CaseUnavailableError, check_available
+from vpro_assets.rollout.episode import EpisodeSettings
+from vpro_assets.rollout.failure_replay import replay
+from vpro_assets.rollout.runner import RunSummary, run_eval
+from vpro_assets.rollout.store import ResultsStore
+
+log = logging.getLogger(__name__)
+
+RUN_ID = "certify"
+POLICY = "oracle"
+PICTURE_RESOLUTION = 160
+SHOWN_UNBUILT = 3
+
+
+@dataclass(frozen=True)
+class Outputs:
+    certificate: Path
+    document: Path
+    pictures: Path  # folder of contact sheets, referenced from the document's folder
+
+
+def certifiable_cases(catalog: dict, selected: Sequence[dict]) -> list[dict]:
+    """The cases to certify for a selection: Normal baselines and scene cases as they are; an
+    observation case stands for its base task's Normal baseline (it inherits that certificate)."""
+    normal = {c["id"]: c for c in catalog.get("normal", [])}
+    out: dict[str, dict] = {}
+    for case in selected:
+        cid = cert.base_of(case)
+        out.setdefault(cid, case if cid == case["id"] else normal[cid])
+    return list(out.values())
+
+
+def check_built(cases: Sequence[dict]) -> None:
+    """VProError naming the scene cases that are not built and the command that builds them."""
+    unbuilt = []
+    for case in cases:
+        try:
+            check_available(case)
+        except CaseUnavailableError:
+            unbuilt.append(case["id"])
+    if unbuilt:
+        shown = ", ".join(unbuilt[:SHOWN_UNBUILT])
+        more = f" and {len(unbuilt) - SHOWN_UNBUILT} more" if len(unbuilt) > SHOWN_UNBUILT else ""
+        select = " ".join(f"--select {c}" for c in unbuilt[:SHOWN_UNBUILT])
+        raise VProError(
+            f"scene case(s) not built: {shown}{more}; build them first: vpro build -j 2 {select}"
+            + (" ... (or the whole selection)" if more else "")
+        )
+
+
+def run_certify(
+    cases: Sequence[dict],
+    results: Path,
+    trials: int,
+    resume: bool,
+    backend: str,
+    workers: int,
+    address: str | None,
+    selection: Sequence[str],
+    on_row: Callable[[dict], None] | None = None,
+    on_plan: Callable[[int, int], None] | None = None,
+) -> RunSummary:
+    check_built(cases)
+    with ResultsStore(results) as store:
+        exists = store.run(RUN_ID) is not None
+    if exists and not resume:
+        raise VProError(
+            f"{results}: a certification run exists; continue it with --resume (or certify into a new file)"
+        )
+    return run_eval(
+        cases,
+        results=results,
+        policy_spec=POLICY,
+        settings=EpisodeSettings(render=False),
+        trials=trials,
+        run_id=RUN_ID,
+        resume=exists,
+        backend=backend,
+        workers=workers,
+        address=address,
+        selection=selection,
+        on_row=on_row,
+        on_plan=on_plan,
+    )
+
+
+def _replays_path(results: Path) -> Path:
+    return results.with_name(results.name + ".replays.json")
+
+
+def _picture_name(case_id: str) -> str:
+    return case_id.replace("/", "__") + ".png"
+
+
+def explain_failures(
+    results_map: dict[str, solvability.CaseResult], results: Path, pictures: Path, settings: EpisodeSettings
+) -> dict[tuple[str, int], dict]:
+    """(case, trial) -> {reason, reproduced, picture} for every failed trial, replayed where not cached."""
+    path = _replays_path(results)
+    cache: dict[str, dict] = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
+    out: dict[tuple[str, int], dict] = {}
+    for cid, r in results_map.items():
+        for i, t in enumerate(sorted(r.failed)):
+            key = f"{cid}#{t}"
+            want_picture = i == 0
+            cached = cache.get(key)
+            if cached is not None and cached["final_state"] == r.final_state[t]:
+                pic = cached.get("picture")
+                if not want_picture or (pic and (pictures / pic).is_file()):
+                    out[(cid, t)] = cached
+                    continue
+            log.info("replaying %s trial %d%s", cid, t, " (rendered)" if want_picture else "")
+            try:
+                rep = replay(r.case, t, settings, render=want_picture, resolution=PICTURE_RESOLUTION)
+                entry: dict = {
+                    "final_state": r.final_state[t],
+                    "reason": rep.reason,
+                    "reproduced": rep.final_state == r.final_state[t],
+                }
+                if not entry["reproduced"]:
+                    entry["reason"] += " (the replay ended in another state than the recorded trial)"
+                if want_picture and rep.frames:
+                    write_png(pictures / _picture_name(cid), rep.sheet(), [f"t{t} step {s}" for s in rep.frame_steps])
+                    entry["picture"] = _picture_name(cid)
+            except Exception as exc:  # a replay that raises is reported, not fatal to the document
+                entry = {"final_state": r.final_state[t], "reason": f"replay raised {type(exc).__name__}: {exc}"}
+            cache[key] = entry
+            out[(cid, t)] = entry
+            write_text_atomic(path, canonical_json(cache))
+    return out
+
+
+def write_outputs(catalog: dict, catalog_file: Path, results: Path, outputs: Outputs) -> dict:
+    """Write the certificate and the document from every row of the certification run; the certificate."""
+    with ResultsStore(results) as store:
+        run = store.run(RUN_ID)
+        if run is None:
+            raise VProError(f"{results}: no certification run; run vpro certify first")
+        rows = store.episodes(RUN_ID)
+    catalog_sha = sha256_file(catalog_file)
+    if run.get("catalog_sha256") and run["catalog_sha256"] != catalog_sha:
+        raise VProError(
+            f"{results}: its certification run was made on catalog sha256 {run['catalog_sha256'][:12]}, "
+            f"{catalog_file} is {catalog_sha[:12]}; certify into a new results database"
+        )
+    lock_sha = cert.file_sha256(lock_path())
+    all_cases = catalog.get("normal", []) + catalog["cases"]
+    results_map = solvability.collect(all_cases, rows)
+    settings = EpisodeSettings(**{**run["settings"], "render": False})
+    outputs.pictures.mkdir(parents=True, exist_ok=True)
+    explained = explain_failures(results_map, results, outputs.pictures, settings)
+    certificate = solvability.certificate(results_map, catalog_sha, lock_sha, run["settings"], run["versions"])
+    cert.write(certificate, outputs.certificate)
+    rel = (
+        outputs.pictures.relative_to(outputs.document.parent)
+        if outputs.pictures.is_relative_to(outputs.document.parent)
+        else outputs.pictures
+    )
+    pictures = {cid: f"{rel}/{e['picture']}" for (cid, _), e in explained.items() if e.get("picture")}
+    used = {Path(p).name for p in pictures.values()}
+    for png in outputs.pictures.glob("*.png"):
+        if png.name not in used:
+            png.unlink()  # a case solved since its picture was taken
+    certified, certifiable = cert.coverage(certificate, catalog)
+    scene_total = sum(1 for c in catalog["cases"] if c.get("level") == "scene")
+    scene_done = sum(1 for r in results_map.values() if r.case.get("setting"))
+    ok_rows = [r for r in rows if r["status"] == "ok" and r["case_id"] in results_map]
+    wall = [float(r["wall_time"]) for r in ok_rows if r.get("wall_time")]
+    header = {
+        "catalog": f"`catalog.json` sha256 {catalog_sha[:12]}, `scene_artifacts.lock.json` sha256 "
+        f"{(lock_sha or 'none')[:12]}",
+        "simulator": ", ".join(f"{k} {v}" for k, v in sorted(run["versions"].items()) if k in ("mujoco", "robosuite")),
+        "certified": f"{certified} of {certifiable} certifiable cases (40 Normal baselines + {scene_total} scene cases); "
+        f"{len(ok_rows)} trials",
+        "episode time": (
+            f"median {statistics.median(wall):.1f} s per render-free episode on one worker "
+            f"({3600 / statistics.mean(wall):.0f} episodes per hour per worker)"
+            if wall
+            else "-"
+        ),
+        "written": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()) + " by `vpro certify`",
+    }
+    previous = outputs.document.read_text(encoding="utf-8") if outputs.document.is_file() else None
+    text = solvability.document(
+        results_map,
+        {k: e["reason"] for k, e in explained.items()},
+        pictures,
+        header,
+        solvability.kept_findings(previous),
+        scene_total - scene_done,
+    )
+    write_text_atomic(outputs.document, text)
+    return certificate

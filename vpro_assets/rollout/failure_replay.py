@@ -1,0 +1,87 @@
+"""Replaying an oracle trial that failed, to see why: the oracle's own log (its plan and the skills
+that failed), the goal predicates still unmet at the end, and, rendered, a contact sheet of the
+episode.
+
+Episodes are deterministic (same seed, same initial state, same actions), so the replay ends in the
+state its row recorded; `reproduced` says whether the final-state fingerprints agree (a render-free
+and a rendered episode end in the same state, `tests/rollout/test_oracle.py`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from vpro_assets.rollout.episode import EpisodeSession, EpisodeSettings
+from vpro_assets.rollout.policies.oracle.policy import OraclePolicy
+
+SHEET_FRAMES = 6
+SHEET_CAMERA = "agentview"
+
+
+@dataclass
+class Replay:
+    case_id: str
+    trial: int
+    success: bool
+    steps: int
+    final_state: str
+    unmet: list[str]  # goal predicates not holding at the end
+    log: list[str]  # the oracle's plan and failure lines, in order
+    stage: str | None  # the skill running when the episode ended
+    frames: list[np.ndarray] = field(default_factory=list)  # upright RGB frames across the episode
+    frame_steps: list[int] = field(default_factory=list)
+
+    @property
+    def reason(self) -> str:
+        """One line: what was unmet, and the last skill failure (or the skill cut off by the limit)."""
+        failures = [line.removeprefix("skill failed: ") for line in self.log if line.startswith("skill failed: ")]
+        unmet = ", ".join(self.unmet) or "goal met after the step limit"
+        if failures:
+            return f"{unmet}: {failures[-1]}"
+        if self.stage:
+            return f"{unmet}: step limit during {self.stage}"
+        return f"{unmet}: the plan ended without reaching the goal"
+
+    def sheet(self) -> np.ndarray:
+        """The frames side by side (empty when the replay was render-free)."""
+        return np.concatenate(self.frames, axis=1) if self.frames else np.zeros((0, 0, 3), np.uint8)
+
+
+def replay(case: dict, trial: int, settings: EpisodeSettings, render: bool, resolution: int = 256) -> Replay:
+    """Run trial `trial` of `case` with the oracle again (rendered: keep SHEET_FRAMES frames)."""
+    settings = replace(settings, render=render, resolution=resolution, video_dir=None)
+    session = EpisodeSession(case, trial, settings)
+    policy = OraclePolicy()
+    policy.reset(session.episode_info())
+    frames, frame_steps = [], []
+    every = max(1, session.limit // (SHEET_FRAMES - 1))
+    try:
+        obs = session.start(on_reset=policy.bind_env)
+        while not session.finished:
+            if render and session.steps % every == 0:
+                frames.append(np.asarray(obs[f"{SHEET_CAMERA}_image"])[::-1].copy())
+                frame_steps.append(session.steps)
+            obs = session.step(policy.next_action())
+        if render:
+            frames.append(np.asarray(obs[f"{SHEET_CAMERA}_image"])[::-1].copy())
+            frame_steps.append(session.steps)
+        controller = policy.controller
+        result = session.result()
+        unmet = [] if controller is None else [" ".join(g) for g in controller.goal if not controller.holds(g)]
+        return Replay(
+            case_id=case["id"],
+            trial=trial,
+            success=bool(result["success"]),
+            steps=int(result["steps"]),
+            final_state=str(result["final_state"]),
+            unmet=unmet,
+            log=list(controller.log) if controller else [],
+            stage=controller.stage if controller else None,
+            frames=frames[-SHEET_FRAMES:] if len(frames) > SHEET_FRAMES else frames,
+            frame_steps=frame_steps[-SHEET_FRAMES:] if len(frame_steps) > SHEET_FRAMES else frame_steps,
+        )
+    finally:
+        policy.close()
+        session.close()
