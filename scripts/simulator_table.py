@@ -14,7 +14,8 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-from vpro_assets.rollout.settle import pose_difference, trial_problems
+from vpro_assets.libero.settled import pose_difference
+from vpro_assets.rollout.settle import trial_problems
 
 
 def _short(problem: str) -> str:

@@ -17,6 +17,7 @@ from vpro_assets.core import paths
 from vpro_assets.packs.writer import write_pack
 
 CHECK = Path(__file__).with_name("fork_obs_check.py")
+DRIFT_CHECK = Path(__file__).with_name("fork_drift_check.py")
 TASK = "libero_goal-03"
 STEPS = 12
 STALE_DELAY = 5  # wrist-delay1
@@ -74,6 +75,33 @@ def run_obs_check(python: Path, config: Path, pack: Path, work: Path) -> dict:
     (work / "report.json").write_text(json.dumps(report, indent=1))  # for a failing check's details
     report["config_bytes_unchanged"] = (config / "config.yaml").read_bytes() == config_bytes
     return report
+
+
+def run_drift_check(python: Path, config: Path, pack: Path, *options: str) -> tuple[int, dict[str, dict], str]:
+    """The pack's own drift check in the fork venv (`python -m vpro_libero_fork verify PACK
+    --simulate`, after the fork's set-up line): its exit status, its table (case -> row), its output."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("VPRO_", "PYTHONPATH"))}
+    env.update(LIBERO_CONFIG_PATH=str(config), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    env["PYOPENGL_PLATFORM"] = env["MUJOCO_GL"]
+    proc = subprocess.run(
+        [str(python), str(DRIFT_CHECK), str(pack), *options], capture_output=True, text=True, timeout=3600, env=env
+    )
+    assert proc.returncode in (0, 1), proc.stderr[-3000:]
+    header = None
+    rows = {}
+    for line in proc.stdout.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells[0] == "case":
+            header = cells
+        elif header and len(cells) == len(header) and not cells[0].startswith("---"):
+            row = dict(zip(header, cells))
+            rows[row["case"]] = {
+                "trials": int(row["trials"]),
+                "displacement_cm": float(row["displacement (cm)"]),
+                "tilt_deg": float(row["tilt change (deg)"]),
+                "status": row["status"],
+            }
+    return proc.returncode, rows, proc.stdout
 
 
 def check_obs_report(report: dict) -> None:

@@ -29,15 +29,9 @@ def digest(path):
 config_before = digest(config_file)
 sys.path.insert(0, pack)
 import robosuite  # noqa: E402
+from fork_setup import fork_setup  # noqa: E402
 
-if tuple(int(p) for p in robosuite.__version__.split(".")[:2]) >= (1, 5):
-    # rpent-libero's OnTheGround robots declare no base (`default_base` None); robosuite 1.5 looks
-    # the base up in BASE_MAPPING. The fork's users add this line; it is the fork's, not the pack's.
-    from robosuite.models.bases import BASE_MAPPING
-    from robosuite.models.bases.null_mount import NullMount
-
-    BASE_MAPPING.setdefault(None, NullMount)
-
+fork_setup()
 from libero.libero import benchmark  # noqa: E402
 from libero.libero.envs import OffScreenRenderEnv  # noqa: E402
 

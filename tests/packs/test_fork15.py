@@ -3,6 +3,8 @@ scripts/make-fork15-venv.sh under out/fork15-venv (a few minutes the first time)
 
 - without the toolkit, the pack's own `vpro_libero_fork` runs one case of every observation
   category through the fork's loop, as in the robosuite 1.4 fork test;
+- the pack's drift check (`python -m vpro_libero_fork verify PACK --simulate`) runs there and
+  reports every case of the pack (docs/packs.md has its figures for one case of each of the 40 tasks);
 - the toolkit's wheel (`make wheel`) installs into it without changing any installed version: the
   base requirements are already satisfied there, so `pip freeze` after equals `pip freeze` before
   plus the toolkit itself. The venv is restored afterwards (the toolkit uninstalled).
@@ -14,7 +16,7 @@ import glob
 import subprocess
 
 import pytest
-from fork_obs import check_obs_report, fork_config, run_obs_check, write_obs_pack
+from fork_obs import OBS_CASES, check_obs_report, fork_config, run_drift_check, run_obs_check, write_obs_pack
 
 from vpro_assets.core import paths
 
@@ -41,6 +43,15 @@ def test_fork15_runs_every_observation_category_after_wrap(python, tmp_path):
     report = run_obs_check(python, fork_config(python, tmp_path / "fork-config"), pack, tmp_path / "run")
     assert report["robosuite"] == "1.5.2"
     check_obs_report(report)
+
+
+def test_fork15_drift_check_runs_and_reports(python, tmp_path):
+    pack = write_obs_pack(tmp_path / "obs-pack")
+    status, rows, out = run_drift_check(python, fork_config(python, tmp_path / "fork-config"), pack, "--trials", "2")
+    assert "this environment: mujoco 3.9" in out and "robosuite 1.5.2" in out
+    assert set(rows) == set(OBS_CASES.values())
+    assert all(row["trials"] == 2 and row["status"].split(":")[0] in ("ok", "drifted") for row in rows.values()), rows
+    assert status == (1 if any(row["status"].startswith("drifted") for row in rows.values()) else 0)
 
 
 def test_wheel_installs_without_changing_any_version(python, tmp_path):

@@ -10,8 +10,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from fork_obs import check_obs_report, fork_config, run_obs_check, write_obs_pack
+from fork_obs import check_obs_report, fork_config, run_drift_check, run_obs_check, write_obs_pack
 
+from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.benchmark.selection import select_cases
 from vpro_assets.core import paths
@@ -129,3 +130,53 @@ def test_fork_runs_every_observation_category_after_wrap(fork_python, tmp_path):
     report = run_obs_check(python, fork_config(python, tmp_path / "fork-config"), pack, tmp_path / "run")
     assert report["robosuite"].startswith("1.4")
     check_obs_report(report)
+
+
+# Two starts: libero_goal-03 (a cabinet: its drawers are fingerprinted joints), shared by two cases,
+# and libero_object-01 (on the floor). Both start alike under MuJoCo 3.2.3, 3.3.7 and 3.8.1
+# (docs/simulator.md: only libero_10-00, -01, -07 and libero_spatial-05 differ beyond 0.56 cm).
+DRIFT_CASES = [
+    "libero_goal-03/camera_staleness/wrist-delay1-v1",
+    "libero_goal-03/target_object_masking/ratio50-always-v1",
+    "libero_object-01/camera_staleness/wrist-delay1-v1",
+]
+MEASURED_MUJOCO = ("3.2.3", "3.3.7", "3.8.1")
+
+
+def test_fork_drift_check_reports_no_drift_and_names_a_moved_fingerprint(fork_python, tmp_path):
+    """robosuite 1.4 fork, no toolkit: `python -m vpro_libero_fork verify PACK --simulate` re-settles
+    the pack's cases in the fork's env against the fingerprints the pack carries: no drift; with a
+    fingerprint whose object was moved 1 cm, exit status 1 naming that case and only it."""
+    python, config = fork_python
+    catalog = load_catalog(paths.catalog_path())
+    pack = write_pack(select_cases(catalog, DRIFT_CASES), tmp_path / "pack", catalog, paths.catalog_path())
+    prints = json.loads((pack / fp.FILE_NAME).read_text())
+    fork_mujoco = subprocess.run(
+        [str(python), "-c", "from importlib import metadata; print(metadata.version('mujoco'))"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
+    # Another MuJoCo than the fingerprints' would be checked against the settle table, not assumed.
+    assert {fork_mujoco, prints["simulator"]["mujoco"]} <= set(MEASURED_MUJOCO)
+
+    status, rows, out = run_drift_check(python, config, pack, "--trials", "2")
+    assert status == 0, out
+    assert f"this environment: mujoco {fork_mujoco} / robosuite 1.4" in out
+    assert set(rows) == set(DRIFT_CASES)
+    for case, row in rows.items():
+        assert row["status"] == "ok" and row["trials"] == 2, (case, row)
+        if fork_mujoco == prints["simulator"]["mujoco"]:
+            assert row["displacement_cm"] == 0.0 and row["tilt_deg"] == 0.0, (case, row)  # the same simulator
+
+    moved = DRIFT_CASES[2]
+    trial = prints["cases"][moved]["trials"]["0"]
+    name = sorted(trial["objects"])[0]
+    trial["objects"][name][0] += 0.01
+    edited = tmp_path / "edited.json"
+    edited.write_text(json.dumps(prints))
+    status, rows, out = run_drift_check(python, config, pack, "--fingerprints", str(edited), "--trials", "1")
+    assert status == 1, out
+    assert f"drifted: {moved}" in out.splitlines()
+    assert rows[moved]["status"] == "drifted" and 0.9 < rows[moved]["displacement_cm"] < 1.1, rows[moved]
+    assert all(rows[c]["status"] == "ok" for c in DRIFT_CASES[:2]), rows

@@ -8,13 +8,16 @@ import tarfile
 
 import pytest
 
+from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.benchmark.selection import select_cases
 from vpro_assets.core import paths
 from vpro_assets.packs import manifest as mf
 from vpro_assets.packs.archive import extract_archive
+from vpro_assets.packs.fork_drift import load_fingerprints, settle_cases
+from vpro_assets.packs.fork_registry import PackRegistrationError
 from vpro_assets.packs.manifest import PackError
-from vpro_assets.packs.writer import verify_pack, write_pack
+from vpro_assets.packs.writer import pack_fingerprints, verify_pack, write_pack
 
 OBSERVATION_CASES = [
     "libero_goal-03/camera_staleness/wrist-delay2-v1",
@@ -68,6 +71,46 @@ def test_pack_layout_and_manifest(catalog, tmp_path):
         if path.is_file():
             text = path.read_bytes().decode("utf-8", errors="replace")
             assert str(paths.REPO_ROOT) not in text and "site-packages" not in text, path
+
+
+def test_pack_carries_the_fingerprints_of_its_cases(catalog, tmp_path):
+    """Observation cases carry their task's Normal fingerprint, hashed in the manifest; a scene case
+    with a fingerprint of its own gets it under its id, one without none."""
+    root = _pack(catalog, tmp_path / "p")
+    manifest = mf.read_manifest(root)
+    toolkit = fp.load()
+    entry = manifest["settle_fingerprints"]
+    assert entry["file"] == fp.FILE_NAME and entry["sha256"] == mf.sha256_file(root / fp.FILE_NAME)
+    assert entry["simulator"] == toolkit["simulator"] and entry["cases"] == len(OBSERVATION_CASES)
+    shipped = load_fingerprints(root, manifest)
+    assert (shipped["simulator"], shipped["wait_steps"]) == (toolkit["simulator"], toolkit["wait_steps"])
+    for cid in OBSERVATION_CASES:
+        normal = cid.split("/")[0] + "/normal"
+        assert shipped["cases"][cid] == dict(toolkit["cases"][normal], inherits=normal)
+    (root / fp.FILE_NAME).write_text(fp.dumps(shipped))  # canonical text: written as the toolkit's file
+    assert not verify_pack(root)[1]
+
+    scene = [c for c in catalog["cases"] if c["level"] == "scene"][:2]
+    own = {"inputs": {"bddl": "b", "init_states": "i"}, "trials": {}}
+    prints = pack_fingerprints(scene, dict(toolkit, cases={**toolkit["cases"], scene[0]["id"]: own}))
+    assert prints["cases"] == {scene[0]["id"]: own}
+
+
+def test_pack_drift_check_refuses_bad_input_in_one_line(catalog, tmp_path):
+    root = _pack(catalog, tmp_path / "p")
+    manifest = mf.read_manifest(root)
+    (tmp_path / "bad.json").write_text('{"schema_version": 99, "cases": {}}')
+    for path, message in (
+        (tmp_path / "bad.json", "not a fingerprint file of schema 1"),
+        (tmp_path / "no", "unreadable"),
+    ):
+        with pytest.raises(PackRegistrationError, match=message) as err:
+            load_fingerprints(root, manifest, path)
+        assert "\n" not in str(err.value)
+    with pytest.raises(PackRegistrationError, match="no case 'nope' in this pack"):
+        settle_cases(root, load_fingerprints(root, manifest), cases=["nope"])
+    with pytest.raises(PackRegistrationError, match="trials must be at least 1, got 0"):
+        settle_cases(root, load_fingerprints(root, manifest), trials=0)
 
 
 def test_verify_names_changed_missing_and_extra_files(catalog, tmp_path):

@@ -10,13 +10,13 @@ import mujoco
 import numpy as np
 import pytest
 
+from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import simulator_versions
 from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.report.write import write_report
-from vpro_assets.rollout import fingerprints as fp
 from vpro_assets.rollout import settle
 from vpro_assets.rollout import store as store_module
 from vpro_assets.rollout.case_env import env_for_case

@@ -12,8 +12,8 @@ from pathlib import Path
 import cv2
 import pytest
 
+from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.libero.bridge import simulator_versions
-from vpro_assets.rollout import fingerprints as fp
 
 pytestmark = [pytest.mark.slow, pytest.mark.simulators]
 

@@ -9,13 +9,14 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.benchmark.selection import select_cases
 from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.images import write_png
-from vpro_assets.libero.bridge import simulator_label, simulator_versions
-from vpro_assets.rollout import fingerprints as fp
+from vpro_assets.libero import settled
+from vpro_assets.libero.settled import simulator_label, simulator_versions
 from vpro_assets.rollout.settle import first_frames, settle_trial
 
 
@@ -78,14 +79,7 @@ def run_drift(args) -> int:
         records += [settle_trial(case, t, prints["wait_steps"]) for t in trials[: args.trials]]
     rows = fp.compare(prints, records)
     print(f"fingerprints: {simulator_label(prints['simulator'])}; this environment: {simulator_label(versions)}")
-    print("| case | trials | displacement (cm) | object | tilt change (deg) | object | joint change | status |")
-    print("|---|---|---|---|---|---|---|---|")
-    for row in rows:
-        print(
-            f"| {row['case']} | {row['trials']} | {row['displacement_cm']:.2f} | {row['object'] or '-'} "
-            f"| {row['tilt_deg']:.1f} | {row['tilt_object'] or '-'} | {row['joint_change']:.4f} {row['joint'] or ''} "
-            f"| {row['status']}{': ' + row['note'] if row['note'] else ''} |"
-        )
+    print("\n".join(settled.table_lines(rows)))
     drifted = [r for r in rows if r["status"] == "drifted"]
     unchecked = [r for r in rows if r["status"] in ("stale", "missing")]
     if drifted and not args.no_pictures:
@@ -106,12 +100,5 @@ def run_drift(args) -> int:
                 ),
             )
             print(f"picture: {path}")
-    tol = fp.TOLERANCES
-    print(
-        f"{len(drifted)} of {len(rows)} case(s) drifted beyond {tol['displacement_cm']} cm / {tol['tilt_deg']} deg / "
-        f"joint {tol['joint_change']}"
-        + (f"; {len(unchecked)} not checked (stale or missing fingerprints)" if unchecked else "")
-    )
-    if drifted:
-        print("drifted: " + " ".join(r["case"] for r in drifted))
+    print("\n".join(settled.summary_lines(rows)))
     return 1 if drifted or unchecked else 0

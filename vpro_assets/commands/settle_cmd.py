@@ -10,15 +10,16 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.benchmark.selection import select_cases
 from vpro_assets.core import paths
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import simulator_label, simulator_versions
-from vpro_assets.rollout import fingerprints as fp
+from vpro_assets.libero.settled import pose_difference
 from vpro_assets.rollout.episode import WAIT_STEPS
-from vpro_assets.rollout.settle import SPEED_LIMIT_M_S, pose_difference, settle_trial, trial_problems
+from vpro_assets.rollout.settle import SPEED_LIMIT_M_S, settle_trial, trial_problems
 
 
 def add_parser(sub) -> None:

@@ -1,8 +1,5 @@
 """Content hashes and canonical JSON: the one form of each the toolkit persists (catalog, lock,
-built scene files, packs, episode rows).
-
-`packs/fork_runtime.py` keeps its own sha256 helper because it runs inside forks without the
-toolkit."""
+built scene files, packs, episode rows); standard library only, so packs carry it too."""
 
 from __future__ import annotations
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import functools
 import importlib.util
 import os
-from importlib import metadata
 from pathlib import Path
 from types import ModuleType
 
@@ -21,6 +20,7 @@ from vpro_assets.core import paths
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import LiberoSetupError
 from vpro_assets.libero.gl import ensure_gl_backend
+from vpro_assets.libero.settled import SIMULATOR_PACKAGES, simulator_label, simulator_versions  # noqa: F401 (re-exported)
 
 SUITES = ("libero_spatial", "libero_object", "libero_goal", "libero_10")
 
@@ -128,23 +128,3 @@ def suite_task_names() -> dict[str, list[str]]:
     itself imports torch)."""
     module = _load_file("vpro_libero_suite_task_map", libero_root() / "benchmark" / "libero_suite_task_map.py")
     return {suite: list(module.libero_task_map[suite]) for suite in SUITES}
-
-
-# The packages whose versions decide the simulated physics of a LIBERO scene (docs/simulator.md).
-SIMULATOR_PACKAGES = ("mujoco", "robosuite", "hf-libero")
-
-
-def simulator_versions() -> dict[str, str]:
-    """Installed versions of the packages that decide a scene's physics, read without importing them."""
-    versions = {}
-    for name in SIMULATOR_PACKAGES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions
-
-
-def simulator_label(versions: dict) -> str:
-    """One short name for a simulator: `mujoco 3.2.3 / robosuite 1.4.1 / hf-libero 0.1.4`."""
-    return " / ".join(f"{name} {versions.get(name, '?')}" for name in SIMULATOR_PACKAGES)

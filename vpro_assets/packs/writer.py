@@ -4,8 +4,9 @@
 <pack>/
   manifest.json                     every other file's sha256 and size; suites, objects, provenance
   README.md                         how to register the pack in a LIBERO fork
-  vpro_libero_fork.py               registration and observation wrapper (packs/fork_runtime.py, imports renamed)
-  _vpro_runtime/                    the toolkit's perturbation code it imports (packs/vendor.py)
+  vpro_libero_fork.py               registration, observation wrapper, drift check (packs/fork_runtime.py, imports renamed)
+  _vpro_runtime/                    the toolkit's code it imports (packs/vendor.py)
+  settle_fingerprints.json          the settled starts of its cases under the reference simulator (fork_drift.py)
   taxonomy.json                     dimensions, categories, settings
   cases/<suite>/<name>.json         each case's spec (catalog record + where its files are)
   bddl_files/<suite>/<name>.bddl    LIBERO BDDL, one per case
@@ -26,6 +27,7 @@ import tempfile
 from pathlib import Path
 
 from vpro_assets import __version__
+from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.benchmark.catalog import library_versions
 from vpro_assets.benchmark.taxonomy import SCENE
 from vpro_assets.core import paths
@@ -55,7 +57,9 @@ suite = benchmark.get_benchmark_dict()["<suite>"]()
 Suites: {suites}. Observation-level cases: `env = vpro_libero_fork.wrap(env, case)` around the
 fork's env, and `vpro_libero_fork.reset(env, case, trial, init_states)` to seed and reset as the
 frozen scenes expect (see docs/packs.md of libero-vpro). `manifest.json` lists every file with its sha256;
-`vpro pack verify <this folder>` checks them.
+`vpro pack verify <this folder>` checks them. Whether this simulator starts the cases as the
+reference simulator did (`settle_fingerprints.json`): `python -m vpro_libero_fork verify . --simulate`
+in this folder (exit status 1 names the cases that drifted).
 """
 
 
@@ -132,6 +136,21 @@ def _check_no_absolute_paths(root: Path) -> None:
                 raise PackError(f"{path.relative_to(root)} contains the absolute path {hit}; packs must be relocatable")
 
 
+def pack_fingerprints(cases: list[dict], toolkit: dict) -> dict:
+    """The fingerprints a pack carries: each case's own entry of the toolkit's fingerprint file, or
+    for an observation case (which starts as its task's Normal baseline) the Normal one, marked
+    `inherits`. A case without either (a scene case not fingerprinted yet) is left out."""
+    cases_out = {}
+    for case in cases:
+        entry = toolkit["cases"].get(case["id"])
+        normal = f"{case['task']}/normal"
+        if entry is None and case["level"] != SCENE and normal in toolkit["cases"]:
+            entry = dict(toolkit["cases"][normal], inherits=normal)
+        if entry is not None:
+            cases_out[case["id"]] = entry
+    return {k: v for k, v in toolkit.items() if k != "cases"} | {"cases": cases_out}
+
+
 def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> None:
     suites: dict[str, list[dict]] = {}
     objects: dict[str, dict] = {}
@@ -164,6 +183,8 @@ def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> Non
         canonical_json({k: catalog[k] for k in ("dimensions", "categories", "settings")})
     )
     vendor.write_runtime(root)
+    prints = pack_fingerprints(cases, fp.load())
+    (root / fp.FILE_NAME).write_text(fp.dumps(prints))
     (root / "README.md").write_text(README.format(suites=", ".join(f"`{s}`" for s in sorted(suites))))
     _check_no_absolute_paths(root)
     files = mf.file_entries(root)
@@ -178,6 +199,12 @@ def _fill(root: Path, cases: list[dict], catalog: dict, catalog_sha: str) -> Non
         "cases": [c["id"] for c in cases],
         "suites": suites,
         "objects": [objects[k] for k in sorted(objects)],
+        "settle_fingerprints": {
+            "file": fp.FILE_NAME,
+            "sha256": files[fp.FILE_NAME]["sha256"],
+            "simulator": prints["simulator"],
+            "cases": len(prints["cases"]),
+        },
         "files": files,
     }
     (root / mf.MANIFEST).write_text(mf.dumps(manifest))

@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from typing import Any
 
 import mujoco
 import numpy as np
 
 from vpro_assets.core.mjgeom import colliding, geom_corners
 from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.libero.settled import articulated_joints, joint_positions, movable_objects, pose
 from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.episode import WAIT_STEPS
 
@@ -36,7 +36,6 @@ SPEED_LIMIT_M_S = 0.05  # the fastest an object may move at the first policy fra
 REGION_XY_TOL_M = 0.02  # an object may rest this far outside its 1 cm placement box
 REGION_Z_BAND_M = (-0.05, 0.10)  # its origin above the region's site (LIBERO's own band is 0.10)
 VIEW_CAMERA = "agentview"
-POSE_DECIMALS = 5  # 10 micrometres; far below every tolerance of the drift check
 
 
 def _name(model, kind, index: int) -> str:
@@ -79,18 +78,11 @@ class _Scene:
     def __init__(self, env):
         self.inner = env.env
         self.model, self.data = self.inner.sim.model._model, self.inner.sim.data._data
-        self.objects = {name: self.inner.obj_body_id[name] for name in self.inner.objects_dict}
+        self.objects = movable_objects(self.inner)
         self.geoms = {
             name: _colliding_geoms(self.model, _subtree(self.model, body)) for name, body in self.objects.items()
         }
-        self.joints = {}
-        for joint in range(self.model.njnt):
-            name = _name(self.model, mujoco.mjtObj.mjOBJ_JOINT, joint)
-            if self.model.jnt_type[joint] in (
-                mujoco.mjtJoint.mjJNT_HINGE,
-                mujoco.mjtJoint.mjJNT_SLIDE,
-            ) and not name.startswith(("robot0_", "gripper0_")):
-                self.joints[name] = int(self.model.jnt_qposadr[joint])
+        self.joints = articulated_joints(self.model)
         self.camera = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, VIEW_CAMERA)
         # The arena's table body: `table` (tabletop), `kitchen_table`, `living_room_table`, `study_table`;
         # LIBERO's floor scenes have none.
@@ -179,16 +171,14 @@ def settle_trial(case: Mapping, trial: int, wait_steps: int = WAIT_STEPS) -> dic
         for name, body in scene.objects.items():
             speed, spin = scene.velocity(body)
             objects[name] = {
-                "pose": [
-                    round(float(v), POSE_DECIMALS) + 0.0 for v in (*scene.data.xpos[body], *scene.data.xquat[body])
-                ],
+                "pose": pose(scene.data, body),
                 "speed": round(speed, 6),
                 "spin": round(spin, 6),
                 "left_table": left_table[name],
                 "out_of_view": not scene.in_view(name),
                 "out_of_view_steps": out_of_view[name],
             }
-        joints = {name: round(float(scene.data.qpos[adr]), POSE_DECIMALS) + 0.0 for name, adr in scene.joints.items()}
+        joints = joint_positions(scene.model, scene.data)
         relations = [scene.relation(list(state)) for state in scene.inner.parsed_problem["initial_state"]]
         return {
             "case": case["id"],
@@ -220,49 +210,6 @@ def trial_problems(record: Mapping, speed_limit: float = SPEED_LIMIT_M_S, relati
     if relations:
         problems += [f"not ({r['relation']})" for r in record["relations"] if not r["holds"]]
     return problems
-
-
-def _tilt_deg(quat_a, quat_b) -> float:
-    """Angle between the bodies' up axes, in degrees."""
-    ups = []
-    for quat in (quat_a, quat_b):
-        quat = np.asarray(quat, dtype=np.float64)
-        up = np.zeros(3)
-        mujoco.mju_rotVecQuat(up, np.array([0.0, 0.0, 1.0]), quat / np.linalg.norm(quat))  # poses are rounded
-        ups.append(up)
-    return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(ups[0], ups[1])), ups[0] @ ups[1])))
-
-
-def pose_difference(a: Mapping, b: Mapping) -> dict:
-    """Largest object displacement (cm, with its object), tilt change (deg) and joint change between
-    two settled records of the same trial (`objects` with `pose`, `joints`)."""
-    worst: dict[str, Any] = {
-        "displacement_cm": 0.0,
-        "object": None,
-        "tilt_deg": 0.0,
-        "tilt_object": None,
-        "joint_change": 0.0,
-        "joint": None,
-        "missing": [],
-    }
-    for name, obj in a["objects"].items():
-        other = b["objects"].get(name)
-        if other is None:
-            worst["missing"].append(name)
-            continue
-        pa, pb = np.asarray(obj["pose"]), np.asarray(other["pose"])
-        moved = float(np.linalg.norm(pa[:3] - pb[:3]) * 100)
-        tilt = _tilt_deg(pa[3:], pb[3:])
-        if moved > worst["displacement_cm"]:
-            worst["displacement_cm"], worst["object"] = moved, name
-        if tilt > worst["tilt_deg"]:
-            worst["tilt_deg"], worst["tilt_object"] = tilt, name
-    for name, value in a["joints"].items():
-        change = abs(value - b["joints"].get(name, value))
-        if change > worst["joint_change"]:
-            worst["joint_change"], worst["joint"] = change, name
-    worst["missing"] += [name for name in b["objects"] if name not in a["objects"]]
-    return worst
 
 
 def first_frames(
