@@ -15,12 +15,12 @@ from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero import physics
 from vpro_assets.libero.init_states import read_init_states
 from vpro_assets.libero.names import CAMERAS, GRIPPER_PREFIX  # noqa: F401 (re-exported)
+from vpro_assets.libero.settled import NOOP_ACTION  # noqa: F401 (re-exported; the pack runtime carries it)
 from vpro_assets.libero.tasks import TaskRecord
 
 log = logging.getLogger(__name__)
 
 DEFAULT_RESOLUTION = 256
-NOOP_ACTION = np.array([0, 0, 0, 0, 0, 0, -1], dtype=np.float64)
 
 
 def make_env(
