@@ -257,35 +257,30 @@ def noop_server(tmp_path_factory):
         yield url
 
 
-def _last_line(text: str) -> str:
-    return [line for line in text.strip().splitlines() if line.strip()][-1]
+def _failed_run(tmp_path: Path, server: str, select: list[str], env: dict | None = None, **params) -> tuple[str, str]:
+    """vla-eval on a config of `select` (2 steps): it must fail; (the last line of its stderr, all of it)."""
+    config = write_config(tmp_path / "c.yaml", select, max_steps=2, **params)
+    proc = vla_eval_run(config, server, tmp_path / "results", env=env)
+    assert proc.returncode != 0
+    return [line for line in proc.stderr.strip().splitlines() if line.strip()][-1], proc.stderr
 
 
 def test_unknown_case_id_is_one_line_error_naming_closest_ids(tmp_path, noop_server):
-    config = write_config(tmp_path / "c.yaml", ["libero_spatial-00/camera_staleness/wrist-delay2-v2"], max_steps=2)
-    proc = vla_eval_run(config, noop_server, tmp_path / "results")
-    assert proc.returncode != 0
-    line = _last_line(proc.stderr)
+    line, stderr = _failed_run(tmp_path, noop_server, ["libero_spatial-00/camera_staleness/wrist-delay2-v2"])
     assert line.startswith("LIBERO-VPro: unknown case, setting")
     assert "'libero_spatial-00/camera_staleness/wrist-delay2-v2'" in line and OBSERVATION in line
-    assert "Traceback" not in proc.stderr
+    assert "Traceback" not in stderr
 
 
 def test_unbuilt_scene_case_names_the_build_command(tmp_path, noop_server):
-    config = write_config(tmp_path / "c.yaml", [SCENE], max_steps=2)
-    env = dict(os.environ, VPRO_OUT=str(tmp_path / "empty-out"))
-    proc = vla_eval_run(config, noop_server, tmp_path / "results", env=env)
-    assert proc.returncode != 0
-    line = _last_line(proc.stderr)
+    line, _ = _failed_run(tmp_path, noop_server, [SCENE], env=dict(os.environ, VPRO_OUT=str(tmp_path / "empty-out")))
     assert line.startswith(f"LIBERO-VPro: case {SCENE}: scene not built")
     assert f"run vpro build --select {SCENE}" in line
 
 
 def test_bad_benchmark_parameter_is_one_line_error(tmp_path, noop_server):
-    config = write_config(tmp_path / "c.yaml", [NORMAL], max_steps=2, image_format="jpeg")
-    proc = vla_eval_run(config, noop_server, tmp_path / "results")
-    assert proc.returncode != 0
-    assert _last_line(proc.stderr) == "LIBERO-VPro: params.image_format must be one of png, raw (lossless), got 'jpeg'"
+    line, _ = _failed_run(tmp_path, noop_server, [NORMAL], image_format="jpeg")
+    assert line == "LIBERO-VPro: params.image_format must be one of png, raw (lossless), got 'jpeg'"
 
 
 def test_recorded_failures_become_error_and_unavailable_rows():
@@ -313,30 +308,15 @@ def test_recorded_failures_become_error_and_unavailable_rows():
         "p",
     )
     assert (ok["status"], ok["success"], ok["trial"], ok["steps"]) == ("ok", True, 3, 7)
-    gone = to_row(
-        {
-            **base,
-            "status": "error",
-            "metrics": {"success": False},
-            "failure_reason": "connection_closed",
-            "failure_detail": "code=None reason=None",
-        },
-        "r",
-        "p",
-    )
+
+    def failed(reason: str, detail: str) -> dict:
+        record = {**base, "status": "error", "metrics": {"success": False}}
+        return to_row(record | {"failure_reason": reason, "failure_detail": detail}, "r", "p")
+
+    gone = failed("connection_closed", "code=None reason=None")
     assert (gone["status"], gone["success"], gone["case_id"], gone["trial"]) == ("error", None, NORMAL, 3)
     assert gone["error"] == "connection_closed: code=None reason=None"
-    unavailable = to_row(
-        {
-            **base,
-            "status": "error",
-            "metrics": {"success": False},
-            "failure_reason": "env_start",
-            "failure_detail": "Traceback...\nvpro_assets.rollout.case_env.CaseUnavailableError: x",
-        },
-        "r",
-        "p",
-    )
+    unavailable = failed("env_start", "Traceback...\nvpro_assets.rollout.case_env.CaseUnavailableError: x")
     assert unavailable["status"] == "unavailable"
 
 

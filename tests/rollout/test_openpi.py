@@ -21,8 +21,6 @@ from vpro_assets.rollout.policies.base import (
 )
 from vpro_assets.rollout.policies.openpi import OpenpiPolicy, build_request, quat2axisangle
 from vpro_assets.rollout.policies.openpi_server import LoopbackPolicyServer
-from vpro_assets.rollout.runner import run_eval
-from vpro_assets.rollout.store import ResultsStore
 
 KEYS = {"observation/image", "observation/wrist_image", "observation/state", "prompt"}
 FAST = EpisodeSettings(resolution=64, wait_steps=1, max_steps_override=6)
@@ -130,26 +128,21 @@ def test_adapter_turns_each_fault_into_a_clear_infrastructure_error(fault, error
         ("nan", "PolicyOutputError", "non-finite action value"),
     ],
 )
-def test_faults_are_recorded_errors_retried_and_the_run_goes_on(tmp_path, normal_case, fault, kind, message):
-    db = tmp_path / "r.sqlite"
+def test_faults_are_recorded_errors_retried_and_the_run_goes_on(eval_on_server, normal_case, fault, kind, message):
     server = None if fault == "refused" else LoopbackPolicyServer(fault=fault, fault_count=10**6).start()
     port = _free_port() if server is None else server.port
     try:
-        summary = run_eval(
-            [normal_case],
-            results=db,
-            policy_spec=f"openpi:127.0.0.1:{port}",
-            policy_options={"infer_timeout": 5.0, "connect_timeout": 2.0},
-            settings=FAST,
+        rows = eval_on_server(
+            normal_case,
+            port,
+            FAST,
             trials=2,
-            backend="inline",
             retries=1,
-            retry_delay=0,
+            policy_options={"infer_timeout": 5.0, "connect_timeout": 2.0},
         )
     finally:
         if server is not None:
             server.stop()
-    rows = ResultsStore(db).episodes(summary.run_id)
     assert [(r["case_id"], r["trial"]) for r in rows] == [(normal_case["id"], t) for t in range(2)]
     for row in rows:  # both trials ran: the first failure did not stop the run
         assert row["status"] == "error" and row["success"] is None
@@ -159,19 +152,9 @@ def test_faults_are_recorded_errors_retried_and_the_run_goes_on(tmp_path, normal
         assert server.connections == 4  # a fresh connection for each attempt
 
 
-def test_transient_fault_is_retried_into_a_result(tmp_path, normal_case):
+def test_transient_fault_is_retried_into_a_result(eval_on_server, normal_case):
     with LoopbackPolicyServer(fault="nan", fault_count=1) as server:
-        summary = run_eval(
-            [normal_case],
-            results=tmp_path / "r.sqlite",
-            policy_spec=f"openpi:127.0.0.1:{server.port}",
-            settings=FAST,
-            trials=1,
-            backend="inline",
-            retries=2,
-            retry_delay=0,
-        )
-    (row,) = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
+        (row,) = eval_on_server(normal_case, server.port, FAST, retries=2)
     assert row["status"] == "ok" and row["attempts"] == 2 and row["success"] in (0, 1) and row["error"] is None
 
 

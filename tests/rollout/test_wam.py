@@ -15,8 +15,6 @@ from vpro_assets.rollout.policies.base import EpisodeInfo, Observation, PolicyOu
 from vpro_assets.rollout.policies.openpi import OpenpiPolicy
 from vpro_assets.rollout.policies.openpi_server import EchoWorldModel, LoopbackPolicyServer
 from vpro_assets.rollout.policies.wam import decode_predicted_frames
-from vpro_assets.rollout.runner import run_eval
-from vpro_assets.rollout.store import ResultsStore
 
 PRD = "libero_spatial-00/prediction_reality_divergence/recursive_self_prediction-v1"
 KEYS = {"observation/image", "observation/wrist_image", "observation/state", "prompt"}
@@ -205,56 +203,27 @@ def test_prediction_reality_divergence_runs_against_a_stateful_world_model_serve
         ("frame_dtype", "predicted frame for agentview has dtype float32; expected uint8"),
     ],
 )
-def test_bad_replies_are_recorded_errors_naming_the_problem(tmp_path, catalog, fault, message):
+def test_bad_replies_are_recorded_errors_naming_the_problem(eval_on_server, catalog, fault, message):
     case = find_case(catalog, PRD)
     model = EchoWorldModel(fault=fault, fault_count=10**6)
     with LoopbackPolicyServer(model, metadata=model.metadata) as server:
-        summary = run_eval(
-            [case],
-            results=tmp_path / "r.sqlite",
-            policy_spec=f"openpi:127.0.0.1:{server.port}",
-            settings=FAST,
-            trials=1,
-            backend="inline",
-            retries=0,
-            retry_delay=0,
-        )
-    (row,) = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
+        (row,) = eval_on_server(case, server.port, FAST)
     assert row["status"] == "error" and row["success"] is None and row["error_kind"] == "PolicyOutputError"
     assert message in row["error"] and "after 1 attempt(s)" in row["error"]
 
 
-def test_a_transient_bad_reply_is_retried_into_a_result(tmp_path, catalog):
+def test_a_transient_bad_reply_is_retried_into_a_result(eval_on_server, catalog):
     case = find_case(catalog, PRD)
     model = EchoWorldModel(fault="frame_dtype", fault_count=1)
     with LoopbackPolicyServer(model, metadata=model.metadata) as server:
-        summary = run_eval(
-            [case],
-            results=tmp_path / "r.sqlite",
-            policy_spec=f"openpi:127.0.0.1:{server.port}",
-            settings=FAST,
-            trials=1,
-            backend="inline",
-            retries=1,
-            retry_delay=0,
-        )
-    (row,) = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
+        (row,) = eval_on_server(case, server.port, FAST, retries=1)
     assert row["status"] == "ok" and row["attempts"] == 2 and row["steps"] == 11
     assert len(model.episodes) == 2  # the retry started its episode with a fresh reset
 
 
-def test_prediction_case_with_a_plain_openpi_server_is_unavailable(tmp_path, catalog):
+def test_prediction_case_with_a_plain_openpi_server_is_unavailable(eval_on_server, catalog):
     case = find_case(catalog, PRD)
     with LoopbackPolicyServer() as server:
-        summary = run_eval(
-            [case],
-            results=tmp_path / "r.sqlite",
-            policy_spec=f"openpi:127.0.0.1:{server.port}",
-            settings=FAST,
-            trials=1,
-            backend="inline",
-            retries=0,
-        )
-    (row,) = ResultsStore(tmp_path / "r.sqlite").episodes(summary.run_id)
+        (row,) = eval_on_server(case, server.port, FAST)
     assert row["status"] == "unavailable" and "does not predict frames" in row["error"]
     assert server.requests == []  # metadata read, nothing sent
