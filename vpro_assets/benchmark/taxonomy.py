@@ -2,466 +2,104 @@
 
 Each setting is a frozen, JSON-serialisable record with a stable, versioned id
 (`vpro/<category>/<name>-v<version>`). Values the paper leaves open (frequencies, delays, noise
-level, severities) are chosen here, once, and documented in docs/taxonomy.md. Changing what a
-setting does means bumping its version, which changes its id and every case id built on it.
+level, severities) are chosen once, in `vpro_assets.benchmark.settings_table`, and documented in
+docs/taxonomy.md. Changing what a setting does means bumping its version, which changes its id and
+every case id built on it. The records and the fixed tables of dimensions and categories are in
+`vpro_assets.benchmark.taxonomy_types`; this module gathers both for the rest of the toolkit (the
+perturbations, the reports, the docs) and looks settings up.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import functools
-from collections.abc import Mapping
-from dataclasses import dataclass
 
-from vpro_assets.core.errors import UnknownIdError
-
-JSONScalar = str | int | float | bool | None
-TAXONOMY_VERSION = "vpro-taxonomy-v1"
-CONTROL_HZ = 20  # LIBERO's OSC controller rate: step counts below are control steps
-
-ROBUSTNESS = "robustness"  # higher SR means more resilient
-DIAGNOSTIC = "diagnostic"  # high SR may come from priors or other views, read with controls
-
-OBSERVATION = "observation"  # the scene stays nominal, what the policy sees changes
-SCENE = "scene"  # the scene itself changes (new BDDL/MJCF, assets, initial states)
-
-# Manipulation phases from the phase tracker, in order.
-PHASES = ("approach", "grasp", "transport", "pre_placement")
-VIEWS = {"third_person": "agentview", "wrist": "robot0_eye_in_hand"}
-
-
-@dataclass(frozen=True)
-class Dimension:
-    id: str
-    title: str
-    summary: str
-
-
-@dataclass(frozen=True)
-class Category:
-    id: str
-    dimension: str
-    title: str
-    indicator: str
-    level: str
-    summary: str
-
-
-@dataclass(frozen=True)
-class Setting:
-    category: str
-    name: str
-    params: tuple[tuple[str, JSONScalar], ...]
-    version: int = 1
-
-    @property
-    def id(self) -> str:
-        return f"vpro/{self.category}/{self.name}-v{self.version}"
-
-    @property
-    def param_dict(self) -> dict[str, JSONScalar]:
-        return dict(self.params)
-
-    def to_json(self) -> dict:
-        cat = category(self.category)
-        return {
-            "id": self.id,
-            "category": self.category,
-            "dimension": cat.dimension,
-            "name": self.name,
-            "version": self.version,
-            "level": cat.level,
-            "params": self.param_dict,
-        }
-
-
-def _setting(category_id: str, name: str, **params: JSONScalar) -> Setting:
-    return Setting(category_id, name, tuple(sorted(params.items())))
-
-
-DIMENSIONS = (
-    Dimension(
-        "visual_evidence_degradation",
-        "Visual Evidence Degradation",
-        "Task-relevant evidence is occluded, corrupted or missing, from single entities to whole views.",
-    ),
-    Dimension(
-        "camera_staleness", "Camera Staleness", "One camera delivers outdated frames while the other stays current."
-    ),
-    Dimension(
-        "visual_source_consistency",
-        "Visual Source Consistency",
-        "Visual sources disagree: the two cameras, or predicted and realised futures.",
-    ),
-    Dimension(
-        "task_relevant_scene_variation",
-        "Task-Relevant Scene Variation",
-        "The scene itself changes; observations stay complete, current and consistent.",
-    ),
+from vpro_assets.benchmark.settings_table import (
+    CONTACT_DILATION_PX,
+    CONTRADICTION_EDITS,
+    CONTRADICTION_OFFSET_M,
+    CORRUPTION_BURST_STEPS,
+    CORRUPTION_FREQUENCIES,
+    DISTRACTOR_RULES,
+    FREEZE_STEP,
+    GEOMETRY_SEVERITY,
+    GEOMETRY_VERSIONS,
+    MASK_RATIOS,
+    MASK_SCHEDULES,
+    NOISE_STD,
+    OCCLUDER_GRAY,
+    REPLAY_START,
+    REPLAY_WINDOW,
+    SETTINGS,
+    STALENESS_DELAYS,
+    TWIST_ELLIPTICITY,
+)
+from vpro_assets.benchmark.taxonomy_types import (
+    CATEGORIES,
+    CONTROL_HZ,
+    DIAGNOSTIC,
+    DIMENSIONS,
+    OBSERVATION,
+    PHASES,
+    ROBUSTNESS,
+    SCENE,
+    TAXONOMY_VERSION,
+    VIEWS,
+    Category,
+    Dimension,
+    JSONScalar,
+    Setting,
+    category,
+    dimension,
+    lookup,
 )
 
-CATEGORIES = (
-    Category(
-        "target_object_masking",
-        "visual_evidence_degradation",
-        "Target-Object Masking",
-        DIAGNOSTIC,
-        OBSERVATION,
-        "A share of the target object's visible pixels is covered by a flat occluder on a temporal schedule.",
-    ),
-    Category(
-        "target_receptacle_masking",
-        "visual_evidence_degradation",
-        "Target-Receptacle Masking",
-        DIAGNOSTIC,
-        OBSERVATION,
-        "As target-object masking, applied to the receptacle the target goes on or into.",
-    ),
-    Category(
-        "interaction_cue_masking",
-        "visual_evidence_degradation",
-        "Interaction-Cue Masking",
-        DIAGNOSTIC,
-        OBSERVATION,
-        "Local interaction cues are removed: the gripper, the gripper-object contact region, the placement contact region.",
-    ),
-    Category(
-        "temporary_observation_corruption",
-        "visual_evidence_degradation",
-        "Temporary Observation Corruption",
-        ROBUSTNESS,
-        OBSERVATION,
-        "Transient full-frame blackout or noise, triggered at a frequency or during one manipulation phase.",
-    ),
-    Category(
-        "view_unavailability",
-        "visual_evidence_degradation",
-        "View Unavailability",
-        ROBUSTNESS,
-        OBSERVATION,
-        "One camera is removed: single-view input, a constant image, or a duplicate of the other view.",
-    ),
-    Category(
-        "camera_staleness",
-        "camera_staleness",
-        "Camera Staleness",
-        ROBUSTNESS,
-        OBSERVATION,
-        "One view is delayed by a fixed number of steps, frozen, or replays its own history.",
-    ),
-    Category(
-        "cross_view_contradiction",
-        "visual_source_consistency",
-        "Cross-View Contradiction",
-        DIAGNOSTIC,
-        OBSERVATION,
-        "One view is edited to contradict the other about quantity, existence, position or state; both time-aligned.",
-    ),
-    Category(
-        "prediction_reality_divergence",
-        "visual_source_consistency",
-        "Prediction-Reality Divergence",
-        ROBUSTNESS,
-        OBSERVATION,
-        "Ground truth only at the first step, then the model's own predicted frames are its observations (frame-predicting models only).",
-    ),
-    Category(
-        "task_relevant_distractors",
-        "task_relevant_scene_variation",
-        "Task-Relevant Distractors",
-        ROBUSTNESS,
-        SCENE,
-        "An added object shares the target's category, colour, shape or affordance, takes its familiar position, or blocks its path.",
-    ),
-    Category(
-        "task_precondition_variation",
-        "task_relevant_scene_variation",
-        "Task-Precondition Variation",
-        ROBUSTNESS,
-        SCENE,
-        "The receptacle's openness or the target's pose starts in the other state; the instruction is unchanged.",
-    ),
-    Category(
-        "visual_state_ambiguity",
-        "task_relevant_scene_variation",
-        "Visual State Ambiguity",
-        DIAGNOSTIC,
-        SCENE,
-        "Physical state unchanged; the other state is added as visual-only geometry, so both are seen at once.",
-    ),
-    Category(
-        "target_geometry_variation",
-        "task_relevant_scene_variation",
-        "Target Geometry Variation",
-        ROBUSTNESS,
-        SCENE,
-        "The target's mesh is tapered, multi-peaked, twisted or made asymmetric at three severities; category preserved.",
-    ),
-)
-
-# ---- parameter choices the paper leaves open (documented in docs/taxonomy.md) -------------
-MASK_RATIOS = (25, 50, 75, 100)  # percent of the entity's visible pixels
-MASK_SCHEDULES = {
-    "always": "every step",
-    "before_grasp": "from the first step until grasp onset; visible afterwards",
-    "after_grasp": "from grasp onset to the end; visible before",
-    "around_placement": "during pre-placement and after placement onset (the placement transition)",
-}
-OCCLUDER_GRAY = 128  # flat mid-grey occluder, uint8
-CONTACT_DILATION_PX = 6  # contact regions grown by this many pixels at 256 px (scaled with resolution)
-CORRUPTION_FREQUENCIES = {"low": 0.02, "medium": 0.05, "high": 0.10}  # burst onset probability per step
-CORRUPTION_BURST_STEPS = 5  # a burst covers 5 control steps (0.25 s)
-NOISE_STD = 64.0  # additive Gaussian noise, uint8 units (0.25 of full scale), clipped
-STALENESS_DELAYS = (5, 10, 20)  # control steps: 0.25 s, 0.5 s, 1 s (level 1 = one openpi replanning cycle)
-FREEZE_STEP = 30  # the view keeps showing the frame of this step from then on
-REPLAY_START, REPLAY_WINDOW = 40, 20  # from step 40 the view loops over its frames 20..39
-CONTRADICTION_OFFSET_M = 0.10  # the target drawn displaced by 10 cm in the manipulated view
-# Cross-view contradiction: the scene edit that makes each attribute disagree between the views.
-CONTRADICTION_EDITS = {
-    "quantity": "duplicate_target",
-    "existence": "hide_target",
-    "position": "displace_target",
-    "state": "other_state",
-}
-GEOMETRY_SEVERITY = {  # deformation magnitude per severity level 1, 2, 3
-    "taper": ("top_scale", (0.85, 0.70, 0.55)),  # cross-section scale at the top vs bottom
-    "multipeak": ("peak_amplitude", (0.06, 0.12, 0.18)),  # bump height, fraction of radius
-    "twist": ("twist_degrees", (20.0, 40.0, 60.0)),  # rotation of the top vs the bottom
-    "asymmetric": ("bulge", (0.10, 0.20, 0.30)),  # one-sided bulge, fraction of radius
-}
-# Twist first makes each slice elliptical (r scaled by 1 + e cos 2 phi), so that round targets
-# change shape too; version 2 (version 1 only rotated the slices: cans, bowls, plates unchanged).
-TWIST_ELLIPTICITY = (0.06, 0.12, 0.18)
-GEOMETRY_VERSIONS = {"taper": 1, "multipeak": 1, "twist": 2, "asymmetric": 1}
-DISTRACTOR_RULES = {
-    "same_category": "another instance of a LIBERO object of the target's category, different model or texture",
-    "same_color": "a different LIBERO object recoloured with the target's dominant material colour",
-    "same_shape": "a LIBERO object whose bounding box aspect ratios are closest to the target's",
-    "same_affordance": "a LIBERO object grasped the same way (same grasp class: bowl, box, bottle, mug, can)",
-    "familiar_position": "a competing object at the mean of the target's position over LIBERO's initial states; target displaced nearby",
-    "trajectory_obstacle": "an object on the straight path from the target to its placement, leaving a collision-free detour",
-}
-
-
-def _masking_settings() -> list[Setting]:
-    """Target Object, Target Receptacle and Interaction-Cue Masking."""
-    out: list[Setting] = []
-    for entity, cat in (("target", "target_object_masking"), ("receptacle", "target_receptacle_masking")):
-        for ratio in MASK_RATIOS:
-            for schedule in MASK_SCHEDULES:
-                out.append(
-                    _setting(
-                        cat,
-                        f"ratio{ratio}-{schedule}",
-                        entity=entity,
-                        ratio=ratio / 100,
-                        schedule=schedule,
-                        occluder_gray=OCCLUDER_GRAY,
-                        views="both",
-                    )
-                )
-    for region in ("gripper", "gripper_object_contact", "placement_contact"):
-        out.append(
-            _setting(
-                "interaction_cue_masking",
-                region,
-                region=region,
-                ratio=1.0,
-                schedule="always",
-                dilation_px=0 if region == "gripper" else CONTACT_DILATION_PX,
-                occluder_gray=OCCLUDER_GRAY,
-                views="both",
-            )
-        )
-    return out
-
-
-def _corruption_settings() -> list[Setting]:
-    """Temporary Observation Corruption, frequency- and phase-triggered."""
-    out: list[Setting] = []
-    for mode in ("blackout", "noise"):
-        noise = NOISE_STD if mode == "noise" else None
-        for level, prob in CORRUPTION_FREQUENCIES.items():
-            out.append(
-                _setting(
-                    "temporary_observation_corruption",
-                    f"{mode}-frequency_{level}",
-                    mode=mode,
-                    trigger="frequency",
-                    onset_prob=prob,
-                    burst_steps=CORRUPTION_BURST_STEPS,
-                    noise_std=noise,
-                    views="both",
-                )
-            )
-        for phase in PHASES:
-            out.append(
-                _setting(
-                    "temporary_observation_corruption",
-                    f"{mode}-phase_{phase}",
-                    mode=mode,
-                    trigger="phase",
-                    phase=phase,
-                    noise_std=noise,
-                    views="both",
-                )
-            )
-    return out
-
-
-def _view_settings() -> list[Setting]:
-    """View Unavailability and Camera Staleness."""
-    out: list[Setting] = []
-    for view in VIEWS:
-        for replacement in ("single_view", "constant", "duplicate"):
-            out.append(
-                _setting(
-                    "view_unavailability",
-                    f"{view}-{replacement}",
-                    view=view,
-                    camera=VIEWS[view],
-                    replacement=replacement,
-                    constant_value=0 if replacement == "constant" else None,
-                )
-            )
-    for view in VIEWS:
-        for delay_level, delay in enumerate(STALENESS_DELAYS, start=1):
-            out.append(
-                _setting(
-                    "camera_staleness",
-                    f"{view}-delay{delay_level}",
-                    view=view,
-                    camera=VIEWS[view],
-                    mode="delay",
-                    delay_steps=delay,
-                )
-            )
-        out.append(
-            _setting(
-                "camera_staleness",
-                f"{view}-freeze",
-                view=view,
-                camera=VIEWS[view],
-                mode="freeze",
-                freeze_step=FREEZE_STEP,
-            )
-        )
-        out.append(
-            _setting(
-                "camera_staleness",
-                f"{view}-replay",
-                view=view,
-                camera=VIEWS[view],
-                mode="replay",
-                replay_start=REPLAY_START,
-                replay_window=REPLAY_WINDOW,
-            )
-        )
-    return out
-
-
-def _evidence_settings() -> list[Setting]:
-    """Cross-View Contradiction and Prediction-Reality Divergence."""
-    out: list[Setting] = []
-    for attribute, edit in CONTRADICTION_EDITS.items():
-        for view in VIEWS:
-            out.append(
-                _setting(
-                    "cross_view_contradiction",
-                    f"{attribute}-{view}",
-                    attribute=attribute,
-                    edit=edit,
-                    view=view,
-                    camera=VIEWS[view],
-                    offset_m=CONTRADICTION_OFFSET_M if attribute == "position" else None,
-                )
-            )
-    out.append(
-        _setting(
-            "prediction_reality_divergence",
-            "recursive_self_prediction",
-            ground_truth_steps=1,
-            requires_predicted_frames=True,
-        )
-    )
-    return out
-
-
-def _scene_settings() -> list[Setting]:
-    """The scene categories: distractors, preconditions, ambiguity, geometry."""
-    out: list[Setting] = []
-    for kind, rule in DISTRACTOR_RULES.items():
-        out.append(_setting("task_relevant_distractors", kind, distractor=kind, rule=rule))
-    for cat, physical in (("task_precondition_variation", True), ("visual_state_ambiguity", False)):
-        out.append(
-            _setting(
-                cat,
-                "receptacle_openness",
-                attribute="receptacle_openness",
-                state="other",
-                physical=physical,
-                visual_only_geometry=not physical,
-            )
-        )
-        out.append(
-            _setting(
-                cat,
-                "object_pose",
-                attribute="object_pose",
-                state="inverted",
-                physical=physical,
-                visual_only_geometry=not physical,
-            )
-        )
-    for deformation, (param, amounts) in GEOMETRY_SEVERITY.items():
-        for severity, amount in enumerate(amounts, start=1):
-            extra = {"twist_ellipticity": TWIST_ELLIPTICITY[severity - 1]} if deformation == "twist" else {}
-            setting = _setting(
-                "target_geometry_variation",
-                f"{deformation}-s{severity}",
-                deformation=deformation,
-                severity=severity,
-                **{param: amount},
-                **extra,
-            )
-            out.append(dataclasses.replace(setting, version=GEOMETRY_VERSIONS[deformation]))
-    return out
-
-
-def _build_settings() -> tuple[Setting, ...]:
-    """The 96 settings in taxonomy order (the order of the catalog's cases)."""
-    return (*_masking_settings(), *_corruption_settings(), *_view_settings(), *_evidence_settings(), *_scene_settings())
-
-
-SETTINGS: tuple[Setting, ...] = _build_settings()
+__all__ = [
+    "CATEGORIES",
+    "CONTACT_DILATION_PX",
+    "CONTRADICTION_EDITS",
+    "CONTRADICTION_OFFSET_M",
+    "CONTROL_HZ",
+    "CORRUPTION_BURST_STEPS",
+    "CORRUPTION_FREQUENCIES",
+    "DIAGNOSTIC",
+    "DIMENSIONS",
+    "DISTRACTOR_RULES",
+    "FREEZE_STEP",
+    "GEOMETRY_SEVERITY",
+    "GEOMETRY_VERSIONS",
+    "MASK_RATIOS",
+    "MASK_SCHEDULES",
+    "NOISE_STD",
+    "OBSERVATION",
+    "OCCLUDER_GRAY",
+    "PHASES",
+    "REPLAY_START",
+    "REPLAY_WINDOW",
+    "ROBUSTNESS",
+    "SCENE",
+    "SETTINGS",
+    "STALENESS_DELAYS",
+    "TAXONOMY_VERSION",
+    "TWIST_ELLIPTICITY",
+    "VIEWS",
+    "Category",
+    "Dimension",
+    "JSONScalar",
+    "Setting",
+    "category",
+    "dimension",
+    "setting",
+    "settings_of",
+]
 
 
 @functools.cache
-def _index() -> dict[str, Mapping]:
-    return {
-        "dimension": {d.id: d for d in DIMENSIONS},
-        "category": {c.id: c for c in CATEGORIES},
-        "setting": {s.id: s for s in SETTINGS},
-    }
-
-
-def dimension(dim_id: str) -> Dimension:
-    return _lookup("dimension", dim_id)
-
-
-def category(cat_id: str) -> Category:
-    return _lookup("category", cat_id)
+def _settings_index() -> dict[str, Setting]:
+    return {s.id: s for s in SETTINGS}
 
 
 def setting(setting_id: str) -> Setting:
-    return _lookup("setting", setting_id)
-
-
-def _lookup(kind: str, key: str):
-    table = _index()[kind]
-    if key not in table:
-        raise UnknownIdError(kind, key, table)
-    return table[key]
+    return lookup("setting", _settings_index(), setting_id)
 
 
 def settings_of(cat_id: str) -> tuple[Setting, ...]:
