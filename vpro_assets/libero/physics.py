@@ -11,10 +11,11 @@ scene, variant env, settling), `vpro validate` and render-free episodes (`vpro e
   exactly as on a fresh compile. The same BDDL gives the same MJCF, so the trials of a case and
   the reset after construction reuse one compile.
 - `physics_step(env, action)`: robosuite's control step (`MujocoEnv.step`) for the physics only:
-  the same controller calls and MuJoCo steps in the same order, without what only an observer
-  reads (observables updated at every substep, observations, reward and success). robosuite runs
-  `mj_forward` before the controller at every substep, and the controller's own update runs it
-  again on the same state, so the first is skipped: the same state, bit for bit.
+  the same mj_forward, controller calls and mj_step in the same order, without what only an
+  observer reads (observables updated at every substep, observations, reward and success).
+  robosuite's mj_forward before the controller looks redundant (the controller's update runs it
+  again on the same state) but is kept: without it, MuJoCo 3.2.3 ends a settle 1e-16 away on a
+  model copied from the cache (3.8.1 does not), and a state must not depend on the path.
 - `reference()`: a context in which both are off (every reset compiles, every step is robosuite's
   own), the path tests and `vpro bench build` compare against.
 
@@ -183,7 +184,7 @@ def physics_step(env, action) -> None:
     inner.timestep += 1
     policy_step = True
     for _ in range(int(inner.control_timestep / inner.model_timestep)):
-        # The controller's update runs mj_forward on this state before it reads anything.
+        mujoco.mj_forward(model, data)
         inner._pre_action(action, policy_step)
         mujoco.mj_step(model, data)
         policy_step = False
