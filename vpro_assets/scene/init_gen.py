@@ -17,7 +17,10 @@ still moves, e.g. a deformed target rocking on an uneven base). The state is acc
 - one more second of zero actions from the stored state moves no object more than 1 cm (the
   check `vpro validate` repeats).
 A rejected draw is redrawn (next attempt) up to MAX_ATTEMPTS times; then InitStateError names the
-case, the trial and the reasons.
+case, the trial and the reasons. An object that keeps its LIBERO place first keeps LIBERO's height;
+from the second attempt on it is lowered onto whatever is below it instead: LIBERO's rows hold some
+objects centimetres above the table, and a deformed target dropped from there can bounce off its
+support (MuJoCo 3.2.3's convex collision of thin hull pieces: libero_spatial-01's taper-s2 bowl).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import contextlib
 import logging
 import math
 
+import mujoco
 import numpy as np
 
 from vpro_assets.core import seeding
@@ -86,10 +90,18 @@ def _ring_spot(
     )
 
 
-def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str], base_layout: dict) -> None:
+def _place(
+    env,
+    variant: SceneVariant,
+    rng: np.random.Generator,
+    added: set[str],
+    base_layout: dict,
+    onto_support: bool = False,
+) -> None:
     """Apply the variant's placements to the loaded state (positions, poses, heights). An object
     that keeps its LIBERO place (a turned or replaced target) keeps its lowest point where LIBERO's
-    object had it (on the table, in a drawer); a moved or added one goes onto the table surface."""
+    object had it (on the table, in a drawer), or with `onto_support` rests on what is below it;
+    a moved or added one goes onto the table surface."""
     data = sim.raw(env).sim.data
     raw = sim.raw(env)
     layout = sim.body_layout(env)
@@ -129,6 +141,8 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
             floor = float(base_layout[p.take_place_of]["lo"][2])
         elif p.keep_xy and p.instance in base_layout:
             floor = float(base_layout[p.instance]["lo"][2])
+            if onto_support:
+                floor = _top_below(env, p.instance, lo)
         else:
             floor = support
         qpos[2] += floor + SUPPORT_GAP - lo
@@ -136,6 +150,25 @@ def _place(env, variant: SceneVariant, rng: np.random.Generator, added: set[str]
         data.set_joint_qvel(joint, np.zeros(6))
         raw.sim.forward()
         pending.discard(p.instance)
+
+
+def _top_below(env, instance: str, lo: float) -> float:
+    """Height of the highest surface under `instance`'s footprint (rays cast down from its lowest
+    point at the footprint's centre and 4 points halfway to its corners, the object excluded)."""
+    raw = sim.raw(env)
+    model, data = raw.sim.model._model, raw.sim.data._data
+    own = sim.body_layout(env)[instance]
+    body = raw.sim.model.body_name2id(raw.objects_dict[instance].root_body)
+    centre, half = (own["lo"][:2] + own["hi"][:2]) / 2, (own["hi"][:2] - own["lo"][:2]) / 2
+    geom = np.array([-1], dtype=np.int32)
+    tops = []
+    for dx, dy in ((0, 0), (0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)):
+        start = np.array([centre[0] + dx * half[0], centre[1] + dy * half[1], lo - 1e-4])
+        # flg_static 1, bodyexclude: the object itself (its own lower hull pieces).
+        dist = mujoco.mj_ray(model, data, start, np.array([0.0, 0.0, -1.0]), None, 1, body, geom)
+        if dist >= 0:
+            tops.append(start[2] - dist)
+    return max(tops) if tops else lo
 
 
 def _kept_spot(
@@ -221,7 +254,7 @@ def trial_state(
             raw.sim.data.set_joint_qpos(js.joint, rng.uniform(js.low, js.high))
         raw.sim.forward()
         try:
-            _place(env, variant, rng, added, base_layout or {})
+            _place(env, variant, rng, added, base_layout or {}, onto_support=attempt > 0)
         except InitStateError as exc:
             reasons.append(f"attempt {attempt}: {exc}")
             continue
