@@ -5,8 +5,8 @@ written from all the rows of that run.
 
 Replays are kept beside the database (`<results>.replays.json`, keyed by case, trial and final-state
 fingerprint), so writing again after `--resume` replays only new failures. The first failed trial of
-a case is replayed rendered for its picture (a contact sheet in `docs/solvability/`); the others
-render-free.
+a case is replayed rendered for its picture (a contact sheet in `docs/solvability/`); the next
+MAX_REPLAYS - 1 render-free (the others are listed as not replayed).
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ RUN_ID = "certify"
 POLICY = "oracle"
 PICTURE_RESOLUTION = 160
 SHOWN_UNBUILT = 3
+MAX_REPLAYS = 3  # failed trials replayed per case (the first one rendered, for its picture)
 
 
 @dataclass(frozen=True)
@@ -128,7 +129,7 @@ def explain_failures(
     cache: dict[str, dict] = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
     out: dict[tuple[str, int], dict] = {}
     for cid, r in results_map.items():
-        for i, t in enumerate(sorted(r.failed)):
+        for i, t in enumerate(sorted(r.failed)[:MAX_REPLAYS]):
             key = f"{cid}#{t}"
             want_picture = i == 0
             cached = cache.get(key)

@@ -1,17 +1,28 @@
 """Push a flat object (libero_goal's plate) along the table onto a table region.
 
-The closed fingers come down inside the object's far rim (the side away from the region), just
-above its floor, then move toward the region's centre, re-aiming from the object's current body
-position each step, until LIBERO's `On` check holds. Pushing from inside keeps the hand over the
-object: behind it there may be no room (libero_goal's plate lies 4 cm in front of the cabinet).
-The hand turns so the fingers line up across the push (a wider pusher).
+The closed fingers come down inside the object's far rim (the side away from where it goes), just
+above its floor, then move toward the goal, re-aiming from the object's current body position each
+step. Pushing from inside keeps the hand over the object: behind it there may be no room
+(libero_goal's plate lies 4 cm in front of the cabinet).
+
+The way there avoids obstacles: the hand is about 20 cm wide along its fingers and reaches down to
+4 cm above the fingertips, so a hand sweeping beside the plate meets what stands there (libero_goal-05's
+bowl beside the plate's straight path to the stove's front). Of three paths (straight; along y, then
+x; along x, then y) and a few hand yaws per leg (fingers across the push first: a wider pusher), the
+push takes the one whose hand and object sweep through the fewest obstacles (objects, then their geoms; each gripper geom's box
+swept on its own), preferring the
+straight path on a tie. LIBERO's `On` check ends the last leg.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
+from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
@@ -20,6 +31,132 @@ CONTACT_Z_M = 0.012  # fingertips this high above the object's bottom while push
 INSIDE_M = 0.03  # fingertips this far inside the object's far edge
 PUSH_STEPS = 200
 STEP_AHEAD_M = 0.03
+LEG_TOL_M = 0.015  # an intermediate leg ends with the object this close to its waypoint
+MIN_LEG_M = 0.02
+STALL_M, STALL_STEPS = 0.005, 30  # a leg ends when the object moved less than this in that many steps
+YAWS_DEG = (0.0, 90.0, 45.0, -45.0)  # finger axis relative to across the push, in order of preference
+PATH_SAMPLES = 10
+INSIDE_CHOICES_M = (INSIDE_M, 0.05, 0.07, 0.09)  # deeper starts keep a hand along the push off what is behind
+
+
+@dataclass(frozen=True)
+class Leg:
+    to: np.ndarray  # where the object's body position goes (xy)
+    orient: np.ndarray  # the hand's orientation while pushing
+    inside: float  # the fingertips start this far inside the object's far edge
+
+
+def hand_points(world: World) -> list[np.ndarray]:
+    """Corners of each of the gripper's collision geoms in the grip site's frame (8 x 3 each): the
+    narrow fingers reach lower than the wide hand."""
+    return [(geom_corners(world.m, world.d, [g]) - world.eef()) @ world.eef_mat() for g in sorted(world.gripper_geoms)]
+
+
+def _sweep(boxes: np.ndarray, local: np.ndarray, path: np.ndarray) -> set[int]:
+    """Obstacle boxes met by the point set `local` translated along `path`."""
+    hits: set[int] = set()
+    for p in path:
+        pts = p + local
+        lo, hi = pts.min(0), pts.max(0)
+        hits |= set(np.flatnonzero(np.all(boxes[:, 0] < hi, axis=1) & np.all(boxes[:, 1] > lo, axis=1)).tolist())
+    return hits
+
+
+def _reach(world: World, obj: str, direction: np.ndarray, inside: float = INSIDE_M) -> float:
+    """From the object's body position back to the fingertips, for a push along `direction`."""
+    proj = (world.points(obj)[:, :2] - world.body_pos(obj)[:2]) @ direction
+    return float(-proj.min() - inside)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    return v / n if n > 1e-6 else np.array([1.0, 0.0])
+
+
+def _leg(
+    world: World,
+    obj: str,
+    frm: np.ndarray,
+    to: np.ndarray,
+    boxes: np.ndarray,
+    hand: list[np.ndarray],
+    owners: list[str],
+) -> tuple[set, Leg]:
+    """The obstacles a leg frm -> to meets (object and hand) with its best hand yaw and start inside
+    the object, and the leg."""
+    direction = _unit(to - frm)
+    z = world.box(obj).lo[2] + CONTACT_Z_M
+    t = np.linspace(0.0, 1.0, PATH_SAMPLES)[:, None]
+    centres = np.column_stack([frm + t * (to - frm), np.full(PATH_SAMPLES, z)])
+    obj_local = world.points(obj) - np.append(world.body_pos(obj)[:2], z)
+    obj_hits = _sweep(boxes, obj_local, centres)
+    across = np.array([-direction[1], direction[0]])
+    best: tuple[tuple[int, int], set, Leg] | None = None
+    for deg in YAWS_DEG:
+        c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+        axis = np.array([c * across[0] - s * across[1], s * across[0] + c * across[1], 0.0])
+        orient = grasp_orientation(world, axis)
+        for inside in INSIDE_CHOICES_M:
+            grips = centres - np.append(direction * _reach(world, obj, direction, inside), 0.0)
+            hits = set(obj_hits)
+            for part in hand:
+                hits |= _sweep(boxes, part @ orient.T, grips)
+            score = (len({owners[h] for h in hits}), len(hits))
+            if best is None or score < best[0]:
+                best = (score, hits, Leg(to, orient, inside))
+    assert best is not None  # YAWS_DEG and INSIDE_CHOICES_M are not empty
+    return best[1], best[2]
+
+
+def push_path(world: World, obj: str, target: np.ndarray) -> list[Leg]:
+    """The legs of the push with the fewest obstacles on the way (the straight path on a tie)."""
+    boxes = obstacle_boxes(world, (obj,))
+    owners = [world.root_name(g) for g in world.obstacle_geoms((obj,))]  # the geoms of `boxes`, in order
+    hand = hand_points(world)
+    pos = world.body_pos(obj)[:2]
+    routes = [[target], [np.array([pos[0], target[1]]), target], [np.array([target[0], pos[1]]), target]]
+    best: tuple[tuple[int, int], list[Leg]] | None = None
+    for route in routes:
+        hits: set = set()
+        legs, frm = [], pos
+        for way in route:
+            if np.linalg.norm(way - frm) < MIN_LEG_M:
+                continue
+            leg_hits, leg = _leg(world, obj, frm, way, boxes, hand, owners)
+            hits |= leg_hits
+            legs.append(leg)
+            frm = way
+        score = (len({owners[h] for h in hits}), len(hits))  # objects met, then geoms met
+        if legs and (best is None or score < best[0]):
+            best = (score, legs)
+    return best[1] if best else [Leg(target, grasp_orientation(world, np.array([0.0, 1.0, 0.0])), INSIDE_M)]
+
+
+def _push_leg(world: World, obj: str, leg: Leg, done) -> Actions:
+    """Push the object's body position toward `leg.to` until `done()`."""
+    pos = world.body_pos(obj)[:2]
+    direction = _unit(leg.to - pos)
+    reach = _reach(world, obj, direction, leg.inside)
+    start = np.append(pos - direction * reach, world.box(obj).lo[2] + CONTACT_Z_M)
+    yield from motion.move_to(world, start + [0, 0, 0.10], CLOSE, leg.orient, tol=0.012, max_steps=150)
+    yield from motion.move_to(world, start, CLOSE, leg.orient, tol=0.008, max_steps=80, speed=0.6)
+    moved_at, moved_from = 0, world.body_pos(obj)[:2]
+    for k in range(PUSH_STEPS):
+        if done():
+            break
+        pos = world.body_pos(obj)[:2]
+        if np.linalg.norm(pos - moved_from) > STALL_M:
+            moved_at, moved_from = k, pos
+        elif k - moved_at > STALL_STEPS:
+            break  # the object stopped following: on to the next leg (or a new plan)
+        err = leg.to - pos
+        # Keep the fingers behind the object's centre on the line to the waypoint.
+        unit = _unit(err)
+        # A goal a short step ahead of the fingers' place behind the object: the hand never runs
+        # ahead of an object that stopped following.
+        aim = np.append(pos - unit * reach + unit * min(float(np.linalg.norm(err)), STEP_AHEAD_M), start[2])
+        yield motion.action_to(world, aim, CLOSE, leg.orient, speed=0.5)
+    yield from motion.move_to(world, world.eef() + [0, 0, 0.08], CLOSE, leg.orient, tol=0.02, max_steps=30)
 
 
 def push_to(world: World, obj: str, region: str) -> Actions:
@@ -27,29 +164,19 @@ def push_to(world: World, obj: str, region: str) -> Actions:
     if world.holds(goal):
         return
     target = world.site_pos(region)[:2]
-    pos = world.body_pos(obj)[:2]
-    direction = target - pos
-    if np.linalg.norm(direction) < 1e-6:
-        direction = np.array([1.0, 0.0])
-    direction /= np.linalg.norm(direction)
-    box = world.box(obj)
-    proj = (world.points(obj)[:, :2] - pos) @ direction
-    reach = -proj.min() - INSIDE_M  # from the body position back to the fingertips
-    start = np.append(pos - direction * reach, box.lo[2] + CONTACT_Z_M)
-    orient = grasp_orientation(world, np.array([-direction[1], direction[0], 0.0]))
-    yield from motion.move_to(world, start + [0, 0, 0.10], CLOSE, orient, tol=0.012, max_steps=150)
-    yield from motion.move_to(world, start, CLOSE, orient, tol=0.008, max_steps=80, speed=0.6)
-    for _ in range(PUSH_STEPS):
+    legs = push_path(world, obj, target)
+    for i, leg in enumerate(legs):
+        if i == len(legs) - 1:
+            yield from _push_leg(world, obj, leg, lambda: world.holds(goal))
+        else:
+            to = leg.to
+            yield from _push_leg(
+                world,
+                obj,
+                leg,
+                lambda to=to: world.holds(goal) or np.linalg.norm(world.body_pos(obj)[:2] - to) < LEG_TOL_M,
+            )
         if world.holds(goal):
             break
-        pos = world.body_pos(obj)[:2]
-        err = target - pos
-        # Keep the fingers behind the object's centre on the line to the target.
-        unit = err / (np.linalg.norm(err) + 1e-9)
-        # A goal a short step ahead of the fingers' place behind the object: the hand never runs
-        # ahead of an object that stopped following.
-        aim = np.append(pos - unit * reach + unit * min(float(np.linalg.norm(err)), STEP_AHEAD_M), start[2])
-        yield motion.action_to(world, aim, CLOSE, orient, speed=0.5)
-    yield from motion.move_to(world, world.eef() + [0, 0, 0.08], CLOSE, orient, tol=0.02, max_steps=30)
     if not world.holds(goal):
         raise SkillFailed(f"{obj} not pushed onto {region} (at {np.round(world.body_pos(obj)[:2], 3).tolist()})")

@@ -175,6 +175,10 @@ class World:
                 out.add("gripper" if other in self.gripper_geoms else self._root_name(other))
         return out
 
+    def root_name(self, geom: int) -> str:
+        """The top-level body name of a geom (`..._main` stripped)."""
+        return self._root_name(geom)
+
     def _root_name(self, geom: int) -> str:
         b = int(self.m.geom_bodyid[geom])
         while self.m.body_parentid[b] != 0:
