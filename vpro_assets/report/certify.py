@@ -59,6 +59,25 @@ def certifiable_cases(catalog: dict, selected: Sequence[dict]) -> list[dict]:
     return list(out.values())
 
 
+def stratified_sample(catalog: dict) -> list[dict]:
+    """One Normal baseline per suite (its first task) and one scene case per scene setting, the
+    settings (in sorted order) taking their case from the suites in turn (the first case of that
+    suite in catalog order, else the setting's first): the sample `make test` certifies."""
+    normal: dict[str, dict] = {}
+    for case in catalog["normal"]:
+        normal.setdefault(case["suite"], case)
+    suites = list(normal)
+    by_setting: dict[str, list[dict]] = {}
+    for case in catalog["cases"]:
+        if case.get("level") == "scene":
+            by_setting.setdefault(case["setting"], []).append(case)
+    scene = []
+    for k, (_, cases) in enumerate(sorted(by_setting.items())):
+        suite = suites[k % len(suites)]
+        scene.append(next((c for c in cases if c["suite"] == suite), cases[0]))
+    return list(normal.values()) + scene
+
+
 def check_built(cases: Sequence[dict]) -> None:
     """VProError naming the scene cases that are not built and the command that builds them."""
     unbuilt = []

@@ -1,0 +1,155 @@
+"""`vpro certify` and the solvability certificate: a stratified sample certified by default (one
+Normal task per suite and one scene case per scene setting, 2 trials, render-free, 2 workers), the
+certificate tied to its catalog, bad input, and the full certificate behind the `certify` marker."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+
+from vpro_assets.benchmark import certificate as cert
+from vpro_assets.benchmark.catalog import find_case, load_catalog
+from vpro_assets.cli import main
+from vpro_assets.commands.catalog_cmd import certificate_problems
+from vpro_assets.core import paths
+from vpro_assets.core.errors import VProError
+from vpro_assets.report import solvability
+from vpro_assets.report.certify import RUN_ID, Outputs, check_built, run_certify, stratified_sample, write_outputs
+from vpro_assets.rollout.policies.oracle.policy import OraclePolicy
+from vpro_assets.rollout.store import ResultsStore
+
+CATALOG = load_catalog(paths.catalog_path())
+NORMAL = "libero_spatial-01/normal"
+
+
+def _outputs(tmp_path) -> Outputs:
+    return Outputs(
+        tmp_path / "solvability.json", tmp_path / "docs" / "solvability.md", tmp_path / "docs" / "solvability"
+    )
+
+
+def _certificate(tmp_path, cases: dict) -> dict:
+    return {
+        "schema_version": cert.SCHEMA_VERSION,
+        "catalog_sha256": cert.file_sha256(paths.catalog_path()),
+        "lock_sha256": cert.file_sha256(paths.REPO_ROOT / "scene_artifacts.lock.json"),
+        "cases": cases,
+    }
+
+
+def _entry(case_id: str) -> dict:
+    return {"case_sha256": cert.case_sha256(find_case(CATALOG, case_id)), "trials": 2, "solved": 2}
+
+
+def test_certificate_of_this_catalog_is_accepted_and_counts_coverage(tmp_path):
+    certificate = _certificate(tmp_path, {NORMAL: _entry(NORMAL)})
+    assert cert.check(certificate, CATALOG, paths.catalog_path()) == []
+    certified, total = cert.coverage(certificate, CATALOG)
+    assert certified == 1 and total == len(CATALOG["normal"]) + sum(c["level"] == "scene" for c in CATALOG["cases"])
+
+
+def test_certificate_of_another_catalog_is_refused_naming_the_mismatch_and_stale_cases(tmp_path):
+    stale = _entry(NORMAL) | {"case_sha256": "0" * 64}
+    certificate = _certificate(tmp_path, {NORMAL: stale, "libero_spatial-99/normal": _entry(NORMAL)})
+    certificate["catalog_sha256"] = "f" * 64
+    problems = cert.check(certificate, CATALOG, paths.catalog_path())
+    assert any("computed on catalog sha256 ffffffffffff" in p for p in problems)
+    assert f"case {NORMAL}: stale (its catalog record changed since it was certified)" in problems
+    assert "case libero_spatial-99/normal: certified but not in the catalog" in problems
+    path = tmp_path / "solvability.json"
+    cert.write(certificate, path)
+    lines = certificate_problems(CATALOG, paths.catalog_path(), path)
+    assert lines[-1].endswith("refused; certify again with `vpro certify --resume`")
+    assert main(["catalog", "verify", "--certificate", str(path)]) == 1
+
+
+def test_observation_cases_inherit_their_task_baseline():
+    obs = next(c for c in CATALOG["cases"] if c["level"] != "scene")
+    scene = next(c for c in CATALOG["cases"] if c["level"] == "scene")
+    assert cert.base_of(obs) == f"{obs['task']}/normal" and not cert.certifiable(obs)
+    assert cert.base_of(scene) == scene["id"]
+
+
+def test_unbuilt_scene_case_is_named_with_the_build_command(tmp_path, monkeypatch):
+    monkeypatch.setenv("VPRO_OUT", str(tmp_path / "empty-out"))
+    case = next(c for c in CATALOG["cases"] if c["level"] == "scene")
+    with pytest.raises(VProError, match=rf"not built: {case['id']}; build them first: vpro build -j 2 --select"):
+        check_built([case])
+
+
+def test_stratified_sample_has_one_task_per_suite_and_one_case_per_scene_setting():
+    sample = stratified_sample(CATALOG)
+    normal = [c for c in sample if not c.get("setting")]
+    scene = [c for c in sample if c.get("setting")]
+    assert sorted(c["suite"] for c in normal) == sorted({c["suite"] for c in CATALOG["normal"]})
+    assert sorted(c["setting"] for c in scene) == sorted(
+        {c["setting"] for c in CATALOG["cases"] if c["level"] == "scene"}
+    )
+
+
+def test_a_trial_that_raises_is_an_error_never_unsolved(tmp_path, monkeypatch):
+    def broken(self):
+        raise RuntimeError("oracle exploded")
+
+    monkeypatch.setattr(OraclePolicy, "next_action", broken)
+    results = tmp_path / "c.sqlite"
+    case = find_case(CATALOG, NORMAL)
+    run_certify([case], results, 1, False, "inline", 1, None, [NORMAL])
+    with ResultsStore(results) as store:
+        (row,) = store.episodes(RUN_ID)
+    assert row["status"] == "error" and row["success"] is None and "oracle exploded" in row["error"]
+    collected = solvability.collect([case], [row])
+    assert collected[NORMAL].trials == 0 and list(collected[NORMAL].errors) == [0]
+
+
+def test_certify_stratified_sample(tmp_path, monkeypatch):
+    """The default check: one Normal task per suite and one scene case per scene setting, 2 trials,
+    render-free with 2 workers; the scene cases built first. Asserts solved trials: every Normal
+    task 2 of 2, every scene case at least 1 of 2 (issue 13's 7 of 10), and the certificate and
+    document written and accepted by `vpro catalog verify`'s check."""
+    out = tmp_path / "out"
+    monkeypatch.setenv("VPRO_OUT", str(out))
+    sample = stratified_sample(CATALOG)
+    scene = [c["id"] for c in sample if c.get("setting")]
+    assert main(["build", "--no-record", "-j", "2", *[a for s in scene for a in ("--select", s)]]) == 0
+    results = tmp_path / "certify.sqlite"
+    run_certify(sample, results, 2, False, "local", 2, None, [c["id"] for c in sample])
+    outputs = _outputs(tmp_path)
+    certificate = write_outputs(CATALOG, paths.catalog_path(), results, outputs)
+    entries = certificate["cases"]
+    assert set(entries) == {c["id"] for c in sample}
+    for cid, e in entries.items():
+        assert e["errors"] == 0, cid
+        assert e["solved"] >= (2 if cid.endswith("/normal") else 1), (cid, e)
+        assert len(e["final_state"]) == e["trials"] == 2
+    assert cert.check(cert.load(outputs.certificate), CATALOG, paths.catalog_path()) == []
+    text = outputs.document.read_text()
+    assert "Observation cases inherit their base task's certificate" in text
+    for cid, e in entries.items():
+        if e["solved"] < e["trials"]:
+            assert f"![{cid}](solvability/" in text, f"no picture of {cid}"
+
+
+@pytest.mark.slow
+@pytest.mark.certify
+def test_full_certificate(tmp_path):
+    """Every Normal baseline and built scene case, 10 trials (hours on 2 cores; build the scene
+    cases first with `vpro build -j 2`). Issue 13's goals: Normal at least 95% with every task at
+    least 8 of 10; every scene setting at least 90% with every case at least 7 of 10."""
+    results = tmp_path / "certify.sqlite"
+    assert main(["certify", "-j", "2", "--results", str(results), "--certificate", str(tmp_path / "s.json"),
+                 "--doc", str(tmp_path / "docs" / "solvability.md"), "--no-progress"]) == 0  # fmt: skip
+    entries = json.loads((tmp_path / "s.json").read_text())["cases"]
+    normal = {k: e for k, e in entries.items() if k.endswith("/normal")}
+    assert sum(e["solved"] for e in normal.values()) >= 0.95 * sum(e["trials"] for e in normal.values())
+    assert all(e["solved"] >= 8 for e in normal.values()), {k: e["solved"] for k, e in normal.items()}
+    by_setting: dict[str, list[dict]] = {}
+    for k, e in entries.items():
+        if not k.endswith("/normal"):
+            by_setting.setdefault(find_case(CATALOG, k)["setting"], []).append(e)
+    for setting, es in by_setting.items():
+        assert sum(e["solved"] for e in es) >= 0.9 * sum(e["trials"] for e in es), setting
+        assert all(e["solved"] >= 7 for e in es), setting
+    shutil.rmtree(tmp_path / "docs", ignore_errors=True)
