@@ -3,6 +3,9 @@ eval`'s runner (run id `certify` of a results database, so `--resume` and the ba
 runner's), then every failed trial replayed to read why, and the certificate and its document
 written from all the rows of that run.
 
+The catalog record each case ran on is kept beside the database (`<results>.cases.json`, sha256 of
+the record): a case whose record changed is refused on `--resume` and left out of the certificate
+(the catalog may change under a long run; the cases that did not change keep their trials).
 Replays are kept beside the database (`<results>.replays.json`, keyed by case, trial and final-state
 fingerprint), so writing again after `--resume` replays only new failures. The first failed trial of
 a case is replayed rendered for its picture (a contact sheet in `docs/solvability/`); the next
@@ -109,6 +112,7 @@ def run_certify(
     on_plan: Callable[[int, int], None] | None = None,
 ) -> RunSummary:
     check_built(cases)
+    record_case_hashes(results, cases)
     with ResultsStore(results) as store:
         exists = store.run(RUN_ID) is not None
     if exists and not resume:
@@ -130,6 +134,33 @@ def run_certify(
         on_row=on_row,
         on_plan=on_plan,
     )
+
+
+def _hashes_path(results: Path) -> Path:
+    return results.with_name(results.name + ".cases.json")
+
+
+def _case_hashes(results: Path) -> dict[str, str]:
+    """case id -> sha256 of the catalog record its trials in `results` ran on."""
+    path = _hashes_path(results)
+    return json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
+
+
+def record_case_hashes(results: Path, cases: Sequence[dict]) -> None:
+    """Note the catalog record each case runs on; VProError when a case with trials in the database
+    has changed since (its rows would mix two versions of the case)."""
+    hashes = _case_hashes(results)
+    with ResultsStore(results) as store:
+        done = {cid for cid, _ in store.done_keys(RUN_ID)} if store.run(RUN_ID) else set()
+    for case in cases:
+        now = cert.case_sha256(case)
+        if case["id"] in done and hashes.get(case["id"]) != now:
+            raise VProError(
+                f"case {case['id']}: its catalog record changed since its trials in {results} ran; "
+                "certify it into a new results database"
+            )
+        hashes[case["id"]] = now
+    write_text_atomic(_hashes_path(results), canonical_json(hashes))
 
 
 def _replays_path(results: Path) -> Path:
@@ -186,14 +217,19 @@ def write_outputs(catalog: dict, catalog_file: Path, results: Path, outputs: Out
             raise VProError(f"{results}: no certification run; run vpro certify first")
         rows = store.episodes(RUN_ID)
     catalog_sha = sha256_file(catalog_file)
-    if run.get("catalog_sha256") and run["catalog_sha256"] != catalog_sha:
-        raise VProError(
-            f"{results}: its certification run was made on catalog sha256 {run['catalog_sha256'][:12]}, "
-            f"{catalog_file} is {catalog_sha[:12]}; certify into a new results database"
-        )
     lock_sha = cert.file_sha256(lock_path())
     all_cases = catalog.get("normal", []) + catalog["cases"]
-    results_map = solvability.collect(all_cases, rows)
+    ran_on = _case_hashes(results)
+    current = [c for c in all_cases if ran_on.get(c["id"]) == cert.case_sha256(c)]
+    stale = sorted({r["case_id"] for r in rows} - {c["id"] for c in current})
+    if stale:
+        log.warning(
+            "%d case(s) left out: their catalog records changed since their trials ran (or are gone), e.g. %s; "
+            "certify them into a new results database",
+            len(stale),
+            ", ".join(stale[:3]),
+        )
+    results_map = solvability.collect(current, rows)
     settings = EpisodeSettings(**{**run["settings"], "render": False})
     outputs.pictures.mkdir(parents=True, exist_ok=True)
     explained = explain_failures(results_map, results, outputs.pictures, settings)
