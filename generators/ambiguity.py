@@ -3,22 +3,25 @@ visual-only geometry (never collides, never moves), so both states are seen at o
 
 - object_pose: an upside-down, visual-only copy of the target (a fixture: no joint, no collision
   geometry) stands at the free spot nearest the target (the distractors' spot rule); the real
-  target starts upright as in LIBERO.
-- receptacle_openness: a visual-only copy of the receptacle's moving part (drawer, door) in the
-  other state (the middle of LIBERO's open or closed range for that joint) is overlaid on the real
-  fixture: both are fixtures placed at one region, the centre of the fixture's own region with its
-  yaw fixed to the middle of LIBERO's range (LIBERO jitters each within 0.5 mm). The real drawer or
-  door keeps its state and is the only one that collides or moves.
+  target starts upright as in LIBERO. Variant `lying`: the copy lies on its side (turned 90
+  degrees about the world x axis) instead.
+- receptacle_openness: a visual-only copy of the moving part (drawer, door) of the container the
+  task involves (`generators.precondition.container_part`) in the other state (the middle of
+  LIBERO's open or closed range for that joint) is overlaid on the real fixture: both are fixtures
+  placed at one region, the centre of the fixture's own region with its yaw fixed to the middle of
+  LIBERO's range (LIBERO jitters each within 0.5 mm). The real drawer or door keeps its state and
+  is the only one that collides or moves. Variant `open50`: the copy shows the part half way
+  between LIBERO's closed and open ranges.
 """
 
 from __future__ import annotations
 
-from generators.precondition import openness_flip
+from generators.precondition import container_part, opening_value, openness_flip
 from vpro_assets.core.mjgeom import quat_mul
 from vpro_assets.scene.bddl_doc import Region
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
-from vpro_assets.scene.pose import INVERT, class_quat
+from vpro_assets.scene.pose import INVERT, LIE, class_quat
 from vpro_assets.scene.variant import SceneVariant
 from vpro_assets.scene.visual_only import articulation_ghost, ghost_object
 
@@ -28,18 +31,19 @@ SURFACE_GAP = 0.001  # m between the table and the copy's lowest point
 
 @register("visual_state_ambiguity/object_pose")
 def object_pose(ctx: GenContext) -> SceneVariant:
-    """An upside-down visual-only copy of the target stands next to the real, upright target."""
+    """An upside-down (or lying) visual-only copy of the target stands next to the real, upright target."""
     target, category = ctx.task.target, ctx.task.target_category
-    quat = quat_mul(INVERT, class_quat(ctx.base.object_classes[target]))
+    pose = "lying" if ctx.case["params"].get("state") == "lying" else "inverted"
+    quat = quat_mul(LIE if pose == "lying" else INVERT, class_quat(ctx.base.object_classes[target]))
     sink = ctx.base.surface_z - ctx.base.fixture_z + SURFACE_GAP
-    ghost = ghost_object(category, "inverted", quat, round(sink, 5))
+    ghost = ghost_object(category, pose, quat, round(sink, 5))
     spot = ctx.free_spot(ctx.familiar_xy(target), ctx.target_pool().footprint_radius)
     instance = ctx.new_instance(ghost.name)
     region = ctx.region_at("vpro_ghost_region", spot, half=GHOST_REGION_HALF)
     return SceneVariant(
         case_id=ctx.case_id,
         generator="visual_state_ambiguity/object_pose",
-        summary=f"a visual-only upside-down copy of {target} stands next to it",
+        summary=f"a visual-only {'lying' if pose == 'lying' else 'upside-down'} copy of {target} stands next to it",
         objects=list(ctx.base.bddl.objects),
         fixtures=list(ctx.base.bddl.fixtures) + [(instance, ghost.name)],
         regions=[region],
@@ -49,7 +53,7 @@ def object_pose(ctx: GenContext) -> SceneVariant:
         details={
             "target": target,
             "visual_only": instance,
-            "pose": "inverted",
+            "pose": pose,
             "nominal_xy": [round(float(v), 4) for v in spot],
         },
     )
@@ -60,15 +64,18 @@ FIXTURE_REGION_HALF = 0.0005  # m
 
 @register("visual_state_ambiguity/receptacle_openness")
 def receptacle_openness(ctx: GenContext) -> SceneVariant:
-    """The receptacle's drawer or door is also drawn, visual-only, in the other open/closed state."""
+    """The involved drawer or door is also drawn, visual-only, in the other open/closed state (or half open)."""
     replace, joints, new_state = openness_flip(ctx)
-    fixture = ctx.task.receptacle
+    fixture, _ = container_part(ctx)
     category = ctx.task.category_of(fixture)
     joint = joints[0]
     value = (joint.low + joint.high) / 2
-    ghost = articulation_ghost(
-        category, joint.joint.removeprefix(f"{fixture}_"), value, "open" if new_state == "open" else "closed"
-    )
+    label, shown = ("open" if new_state == "open" else "closed"), f"{new_state}d"  # base wording kept as built
+    if "opening" in ctx.case["params"]:
+        fraction = float(ctx.case["params"]["opening"])
+        value, new_state, label = opening_value(ctx, fixture, fraction), "partly_open", f"open{int(fraction * 100)}"
+        shown = f"{int(fraction * 100)}% open"
+    ghost = articulation_ghost(category, joint.joint.removeprefix(f"{fixture}_"), value, label)
     old = ctx.init_of(fixture)
     old_region = ctx.base.bddl.parsed["regions"][old.strip("()").split()[2]]
     x0, y0, x1, y1 = old_region["ranges"][0]
@@ -85,7 +92,7 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
     return SceneVariant(
         case_id=ctx.case_id,
         generator="visual_state_ambiguity/receptacle_openness",
-        summary=f"{fixture} also shows its {joint.joint.removeprefix(fixture + '_')} {new_state}d, visual-only",
+        summary=f"{fixture} also shows its {joint.joint.removeprefix(fixture + '_')} {shown}, visual-only",
         objects=list(ctx.base.bddl.objects),
         fixtures=list(ctx.base.bddl.fixtures) + [(instance, ghost.name)],
         regions=[region],

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from generators.fixture_goal import reference
 from vpro_assets.scene import pool as pool_mod
 from vpro_assets.scene.context import GenContext
 
@@ -20,13 +21,13 @@ def _size_gap(a: pool_mod.PoolObject, b: pool_mod.PoolObject) -> float:
 
 def _pick(ctx: GenContext, candidates: list, key, rule: str) -> list[pool_mod.PoolObject]:
     if not candidates:
-        raise ctx.fail(f"the {rule} rule finds no object in the pool for target {ctx.task.target_category!r}")
+        raise ctx.fail(f"the {rule} rule finds no object in the pool for target {reference(ctx).name!r}")
     return sorted(candidates, key=lambda p: (key(p), p.name))
 
 
 def choose(ctx: GenContext, rule: str) -> list[pool_mod.PoolObject]:
     """The rule's candidates, best first (the first that fits the scene is used)."""
-    target = ctx.target_pool()
+    target = reference(ctx)  # the target, or the stand-in of a fixture-only goal's fixture
     others = [p for p in pool_mod.pool().values() if p.name != target.name]
     size = lambda p: _size_gap(p, target)  # noqa: E731
     if rule in ("same_category", "familiar_position"):

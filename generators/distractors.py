@@ -27,6 +27,8 @@ four "same ..." rules the best-ranked candidate that has a free spot near the ta
   room, if that leaves at least 1 mm beyond its padded footprint to everything in every trial;
   where the carrying path has no such room either (a mug right in front of the microwave it goes
   into), the same search runs on the reaching path, from where the gripper starts to the target.
+Fixture-only goals (open a drawer, turn on the stove): each rule as documented in
+`generators.fixture_goal`, with a stand-in object for the target and the fixture as the anchor.
 Placement: added objects sit at a nominal spot (the free-spot rule of `scene.context`, or the
 rule's anchor) written as a 2 cm region in the BDDL, jittered per trial by up to 1.5 cm with the
 trial's seed, clear of every other object; an object never overlaps the target or receptacle, so
@@ -41,6 +43,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from generators.distractor_choice import choose
+from generators.fixture_goal import CLOSE_RADII, acted_on, anchor_xy, fixture_goal, reference
 from vpro_assets.core.errors import GeneratorError
 from vpro_assets.scene.bddl_doc import Region
 from vpro_assets.scene.context import GenContext
@@ -105,7 +108,7 @@ def _near_target(ctx: GenContext, rule: str):
     errors = []
     for chosen in choose(ctx, rule):
         try:
-            return chosen, ctx.free_spot(ctx.familiar_xy(ctx.task.target), chosen.footprint_radius)
+            return chosen, ctx.free_spot(anchor_xy(ctx), chosen.footprint_radius)
         except GeneratorError as exc:
             errors.append(f"{chosen.name}: {exc}")
     raise ctx.fail(f"no {rule} candidate fits near the target ({'; '.join(errors[:3])})")
@@ -138,7 +141,7 @@ def same_affordance(ctx: GenContext) -> SceneVariant:
 def same_color(ctx: GenContext) -> SceneVariant:
     """Adds an object of another family recoloured with the target's dominant colour."""
     chosen, spot = _near_target(ctx, "same_color")
-    color = ctx.target_pool().color
+    color = reference(ctx).color
     generated = recolored_object(chosen.name, color)
     return _variant(
         ctx,
@@ -159,6 +162,8 @@ def _on_table(ctx: GenContext, instance: str) -> bool:
 @register("task_relevant_distractors/familiar_position", version=2)
 def familiar_position(ctx: GenContext) -> SceneVariant:
     """A same-category object takes the target's familiar position; the target moves nearby."""
+    if fixture_goal(ctx):
+        return _familiar_fixture(ctx)
     target = ctx.task.target
     ranked = choose(ctx, "familiar_position")
     familiar = ctx.familiar_xy(target)
@@ -210,7 +215,8 @@ def familiar_position(ctx: GenContext) -> SceneVariant:
 def trajectory_obstacle(ctx: GenContext) -> SceneVariant:
     """Adds an object on the straight path from the target to where the goal puts it."""
     chosen = choose(ctx, "trajectory_obstacle")[0]
-    start, end = ctx.familiar_xy(ctx.task.target), ctx.destination_xy()
+    # A fixture-only goal has no carrying path: the reaching path, from the gripper to the fixture.
+    start, end = (ctx.base.gripper_xy, anchor_xy(ctx)) if fixture_goal(ctx) else (anchor_xy(ctx), ctx.destination_xy())
     radius = chosen.footprint_radius
     mid = start + 0.5 * (end - start)
     best = None
@@ -240,6 +246,26 @@ def trajectory_obstacle(ctx: GenContext) -> SceneVariant:
             **({} if path_name == "carrying" else {"obstructs": path_name}),
         },
     )
+
+
+def _familiar_fixture(ctx: GenContext) -> SceneVariant:
+    """Fixture-only goal: the stand-in's same-category object as close to the fixture as it fits."""
+    fixture, errors = acted_on(ctx), []
+    for chosen in choose(ctx, "familiar_position"):
+        try:
+            spot = ctx.free_spot(anchor_xy(ctx), chosen.footprint_radius, radii=CLOSE_RADII)
+        except GeneratorError as exc:
+            errors.append(f"{chosen.name}: {exc}")
+            continue
+        return _variant(
+            ctx,
+            "familiar_position",
+            chosen.name,
+            spot,
+            f"adds {chosen.name} right next to {fixture}, where an object to go into or onto it would stand",
+            details={"familiar_xy": [round(float(v), 4) for v in anchor_xy(ctx)], "stands_for": fixture},
+        )
+    raise ctx.fail(f"no familiar_position candidate fits next to {fixture} ({'; '.join(errors[:3])})")
 
 
 def _crowded_path_spot(ctx: GenContext, start: np.ndarray, end: np.ndarray):

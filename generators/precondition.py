@@ -1,15 +1,20 @@
 """Task-Precondition Variation: the instruction is unchanged, the start state is not.
 
-- receptacle_openness: the receptacle the target goes into (drawer, microwave) starts in the
-  other state: its `(Open ...)` init predicate becomes `(Close ...)` (and vice versa; where the
-  base task states none, the state is read from LIBERO's first initial state with the fixture's
-  own `is_open` test and the other one is added), and every
-  trial sets its joint to a value drawn from LIBERO's own closed (or open) range for it.
+- receptacle_openness: the drawer or door the task involves (`container_part`: the receptacle the
+  target goes into, else the drawer the goal opens or closes, else the top drawer of the cabinet
+  the target goes on) starts in the other state: its `(Open ...)` init predicate becomes
+  `(Close ...)` (and vice versa; where the base task states none, the state is read from LIBERO's
+  first initial state with the fixture's own `is_open` test and the other one is added), and
+  every trial sets its joint to a value drawn from LIBERO's own closed (or open) range for it.
+  Variants `open25`, `open50`, `open75` (a second opening level) set the joint to that fraction
+  of the way from the edge of LIBERO's closed range to the edge of its open range, where neither
+  LIBERO's `is_open` nor its `is_close` holds, and drop any open/close init predicate of the part.
 - object_pose: the target starts upside down (turned 180 degrees about the world x axis) at its
   LIBERO position of the trial, lowered onto the table and settled, so it rests in another
   stable pose. Where the turned target would touch a neighbour there (an inverted bowl's rim on
   a plate's rim tips it over and rolls it away), it starts at a spot nearby clear by 5 mm, if
-  there is one (v2). The BDDL is the base task's (LIBERO's regions hold no orientation): the
+  there is one (v2). Variant `lying`: turned 90 degrees about the world x axis instead, so it
+  rests on its side. The BDDL is the base task's (LIBERO's regions hold no orientation): the
   frozen initial states carry the pose.
 """
 
@@ -17,24 +22,76 @@ from __future__ import annotations
 
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
+from vpro_assets.scene.pose import LIE
 from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
+
+# The drawer right under the top of a cabinet a target goes on (libero_goal "on the top of the drawer").
+TOP_DRAWER_REGION = "top_region"
+
+
+def container_part(ctx: GenContext) -> tuple[str, str]:
+    """(fixture, region or fixture name) of the drawer or door the task involves."""
+    task = ctx.task
+    if task.openable_receptacle:
+        region = f"{task.receptacle}_{task.receptacle_region}" if task.receptacle_region else task.receptacle
+        return task.receptacle, region
+    openable = [a.name for a in task.articulations if a.kind == "openable"]
+    for pred, *args in task.goal:
+        if pred in ("open", "close"):
+            owner = next((f for f in openable if args[0].startswith(f)), None)
+            if owner:
+                return owner, args[0]
+    if task.receptacle in openable:
+        return task.receptacle, f"{task.receptacle}_{TOP_DRAWER_REGION}"
+    raise ctx.fail("the task involves no drawer or door that opens and closes")
+
+
+def _part_joints(ctx: GenContext, fixture: str, region: str) -> list[str]:
+    joints = ctx.base.site_joints.get(region) or ctx.base.site_joints.get(fixture) or []
+    if not joints:
+        raise ctx.fail(f"no joint found for {region} in the base scene")
+    return joints
+
+
+def opening_value(ctx: GenContext, fixture: str, fraction: float) -> float:
+    """The joint value `fraction` of the way from the edge of LIBERO's closed range to the edge of
+    its open range (the edges that face each other)."""
+    art = ctx.base.object_classes[fixture].object_properties["articulation"]
+    closed, opened = art["default_close_ranges"], art["default_open_ranges"]
+    toward_open = max(closed) if min(opened) > max(closed) else min(closed)
+    toward_closed = min(opened) if min(opened) > max(closed) else max(opened)
+    return round(toward_open + fraction * (toward_closed - toward_open), 5)
+
+
+def opening_setting(ctx: GenContext, fraction: float) -> tuple[list[str], list[JointSetting], str, str]:
+    """(init predicates to drop, joint settings, fixture, region) for the part set partly open."""
+    fixture, region = container_part(ctx)
+    value = opening_value(ctx, fixture, fraction)
+    drop = [
+        p
+        for p in ctx.base.bddl.init
+        if (parts := p.strip("()").split())
+        and len(parts) == 2
+        and parts[0].lower() in ("open", "close")
+        and parts[1] in (region, fixture)
+    ]
+    return drop, [JointSetting(j, value, value) for j in _part_joints(ctx, fixture, region)], fixture, region
 
 
 def openness_flip(ctx: GenContext) -> tuple[dict, list[JointSetting], str]:
-    """(init predicate replacements, joint settings, new state) for the receptacle's other state."""
-    task = ctx.task
-    region = f"{task.receptacle}_{task.receptacle_region}" if task.receptacle_region else task.receptacle
+    """(init predicate replacements, joint settings, new state) for the part's other state."""
+    fixture_name, region = container_part(ctx)
     replace, new_state = {}, None
     for p in ctx.base.bddl.init:
         parts = p.strip("()").split()
-        if len(parts) == 2 and parts[0].lower() in ("open", "close") and parts[1] in (region, task.receptacle):
+        if len(parts) == 2 and parts[0].lower() in ("open", "close") and parts[1] in (region, fixture_name):
             new_state = "close" if parts[0].lower() == "open" else "open"
             replace[p] = f"({new_state.capitalize()} {parts[1]})"
             region = parts[1]
-    fixture = ctx.base.object_classes[task.receptacle]
+    fixture = ctx.base.object_classes[fixture_name]
     if new_state is None:
         # No predicate: read the state from LIBERO's first initial state with the fixture's own test.
-        joints = ctx.base.site_joints.get(region) or ctx.base.site_joints.get(task.receptacle) or []
+        joints = ctx.base.site_joints.get(region) or ctx.base.site_joints.get(fixture_name) or []
         if not joints:
             raise ctx.fail(f"no joint found for {region} in the base scene; cannot tell its open/closed state")
         slot = ctx.base.slots[joints[0]]
@@ -43,40 +100,63 @@ def openness_flip(ctx: GenContext) -> tuple[dict, list[JointSetting], str]:
         add = f"({new_state.capitalize()} {region})"
         replace["__add__"] = add
     ranges = fixture.object_properties["articulation"][f"default_{new_state}_ranges"]
-    joints = ctx.base.site_joints.get(region) or ctx.base.site_joints.get(task.receptacle) or []
-    if not joints:
-        raise ctx.fail(f"no joint found for {region} in the base scene")
+    joints = _part_joints(ctx, fixture_name, region)
     return replace, [JointSetting(j, float(min(ranges)), float(max(ranges))) for j in joints], new_state
 
 
 @register("task_precondition_variation/receptacle_openness")
 def receptacle_openness(ctx: GenContext) -> SceneVariant:
-    """The receptacle starts in the other open/closed state, so it must be opened (or closed) first."""
+    """The drawer or door the task involves starts in the other open/closed state (or partly open),
+    so it must be opened (or closed) first."""
+    if "opening" in ctx.case["params"]:
+        fraction = float(ctx.case["params"]["opening"])
+        drop, joints, fixture, region = opening_setting(ctx, fraction)
+        return SceneVariant(
+            case_id=ctx.case_id,
+            generator="task_precondition_variation/receptacle_openness",
+            summary=f"{region} starts {int(fraction * 100)}% open",
+            objects=list(ctx.base.bddl.objects),
+            fixtures=list(ctx.base.bddl.fixtures),
+            init=ctx.init_with(drop=tuple(drop)),
+            joints=joints,
+            details={
+                "receptacle": fixture,
+                "part": region,
+                "state": "partly_open",
+                "opening": fraction,
+                "joints": [j.joint for j in joints],
+                "joint_value": joints[0].low,
+            },
+        )
     replace, joints, new_state = openness_flip(ctx)
     add = [replace.pop("__add__")] if "__add__" in replace else []
+    fixture, _ = container_part(ctx)
     return SceneVariant(
         case_id=ctx.case_id,
         generator="task_precondition_variation/receptacle_openness",
-        summary=f"{ctx.task.receptacle} starts {'closed' if new_state == 'close' else 'open'}",
+        summary=f"{fixture} starts {'closed' if new_state == 'close' else 'open'}",
         objects=list(ctx.base.bddl.objects),
         fixtures=list(ctx.base.bddl.fixtures),
         init=ctx.init_with(replace=replace, add=add),
         joints=joints,
-        details={"receptacle": ctx.task.receptacle, "state": new_state, "joints": [j.joint for j in joints]},
+        details={"receptacle": fixture, "state": new_state, "joints": [j.joint for j in joints]},
     )
 
 
 @register("task_precondition_variation/object_pose", version=2)
 def object_pose(ctx: GenContext) -> SceneVariant:
-    """The target starts upside down at its usual place (or next to it, clear of its neighbours)."""
+    """The target starts upside down (or lying on its side) at its usual place (or next to it,
+    clear of its neighbours)."""
     target = ctx.task.target
+    lying = ctx.case["params"].get("state") == "lying"
+    turn = {"turn": tuple(float(v) for v in LIE)} if lying else {"invert": True}
     return SceneVariant(
         case_id=ctx.case_id,
         generator="task_precondition_variation/object_pose",
-        summary=f"{target} starts upside down",
+        summary=f"{target} starts {'lying on its side' if lying else 'upside down'}",
         objects=list(ctx.base.bddl.objects),
         fixtures=list(ctx.base.bddl.fixtures),
         init=ctx.init_with(),
-        placements=[Placement(target, (0.0, 0.0), margin=0.005, keep_xy=True, invert=True, clear_of_neighbours=True)],
-        details={"target": target, "pose": "inverted"},
+        placements=[Placement(target, (0.0, 0.0), margin=0.005, keep_xy=True, clear_of_neighbours=True, **turn)],
+        details={"target": target, "pose": "lying" if lying else "inverted"},
     )

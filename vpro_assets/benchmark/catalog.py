@@ -14,9 +14,10 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from vpro_assets.benchmark import applicability
+from vpro_assets.benchmark import allocation
 from vpro_assets.benchmark import lock as scene_lock_mod
 from vpro_assets.benchmark import taxonomy as tx
+from vpro_assets.benchmark.variants import BASE, Variant, variant_params
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import CatalogError, UnknownIdError
 from vpro_assets.core.hashing import canonical_json
@@ -56,9 +57,11 @@ CASE_FIELDS = (
 )
 
 
-def case_id(task: TaskRecord, setting: tx.Setting) -> str:
-    """`libero_goal-03/target_object_masking/ratio50-before_grasp-v1`."""
-    return f"{task.key}/{setting.id.removeprefix('vpro/')}"
+def case_id(task: TaskRecord, setting: tx.Setting, variant: Variant | None = None) -> str:
+    """`libero_goal-03/target_object_masking/ratio50-before_grasp-v1`; a variant other than the
+    base one adds its suffix: `libero_10-09/task_precondition_variation/receptacle_openness-v1-open25`."""
+    suffix = variant.suffix if variant else ""
+    return f"{task.key}/{setting.id.removeprefix('vpro/')}{suffix}"
 
 
 def normal_id(task: TaskRecord) -> str:
@@ -69,9 +72,9 @@ def _libero_init_ref(task: TaskRecord) -> dict:
     return {"source": "libero", "file": task.init_relpath, "rows": list(range(TRIALS_PER_CASE))}
 
 
-def _case(task: TaskRecord, setting: tx.Setting, scene_lock: dict | None = None) -> dict:
+def _case(task: TaskRecord, setting: tx.Setting, variant: Variant, scene_lock: dict | None = None) -> dict:
     cat = tx.category(setting.category)
-    cid = case_id(task, setting)
+    cid = case_id(task, setting, variant)
     scene = cat.level == tx.SCENE
     # Scene cases: artifact hashes recorded by `vpro build` in the committed lock file.
     built = (scene_lock or {}).get(cid) if scene else None
@@ -92,7 +95,8 @@ def _case(task: TaskRecord, setting: tx.Setting, scene_lock: dict | None = None)
         "indicator": cat.indicator,
         "level": cat.level,
         "setting": setting.id,
-        "params": setting.param_dict,
+        # The base variant's parameters are the setting's; another variant adds its own (and `variant`).
+        "params": variant_params(setting, variant),
         "trial_seeds": trial_seeds(cid),
         # Scene cases get frozen initial states of their own from the generators.
         "init_states": init_ref if scene else _libero_init_ref(task),
@@ -112,9 +116,9 @@ def library_versions() -> dict[str, str]:
 
 def build_catalog(tasks: tuple[TaskRecord, ...] | None = None) -> dict[str, Any]:
     tasks = tasks or load_tasks()
-    chosen = applicability.select(tasks, libero_bridge.SUITES)
+    chosen = allocation.select(tasks, libero_bridge.SUITES)
     scene_lock = scene_lock_mod.load()
-    cases = [_case(task, s, scene_lock) for s in tx.SETTINGS for task in chosen[s.id]]
+    cases = [_case(c.task, c.setting, c.variant, scene_lock) for s in tx.SETTINGS for c in chosen[s.id]]
     per_category = Counter(c["category"] for c in cases)
     header = {
         "benchmark": "LIBERO-VPro",
@@ -122,7 +126,8 @@ def build_catalog(tasks: tuple[TaskRecord, ...] | None = None) -> dict[str, Any]
         "taxonomy_version": tx.TAXONOMY_VERSION,
         "library_versions": library_versions(),
         "seed_scheme": SEED_SCHEME,
-        "selection_rule": " ".join(applicability.__doc__.split()),
+        "selection_rule": " ".join((allocation.__doc__ or "").split()),
+        "pinned_counts": {p.category: {"cases": p.cases, "source": p.source} for p in allocation.PINNED},
         "totals": {
             "cases": len(cases),
             "settings": len({c["setting"] for c in cases}),
@@ -133,6 +138,7 @@ def build_catalog(tasks: tuple[TaskRecord, ...] | None = None) -> dict[str, Any]
             "episodes": len(cases) * TRIALS_PER_CASE,
         },
         "cases_per_category": dict(per_category),
+        "variant_cases": sum(c["params"].get("variant", BASE) != BASE for c in cases),
     }
     normal = [
         {

@@ -3,125 +3,34 @@
 Tables (file stems): `category_matrix` (SR per category with drop from Normal, robustness
 categories marked up-arrow, diagnostic ones diamond), `view_reliance` (staleness per stale view,
 availability per retained view), `contradiction` (by attribute), `distractors` (by type) and
-`contact_composition`, `precondition_ambiguity` (openness, object pose), `geometry` (by deformation
+`contact_composition`, `precondition_ambiguity` (openness, object pose; a setting's cell pools
+its variants) and `precondition_ambiguity_variants` (per variant), `geometry` (by deformation
 and by severity), `phase_corruption` (by trigger phase and frequency), `interaction_cue` (by
 region), `suites`, `episodes` (status counts and errors). A cell holds a success rate over `ok`
 episodes with its trial count, a 95% Wilson interval and its drop from Normal on the same tasks.
+Cells and their renderings: `report.table_model`; the scene-variation tables: `report.scene_tables`.
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 from vpro_assets.benchmark import taxonomy as tx
-from vpro_assets.report.metrics import Rate, composition, drop, group, normal_rate, rate
+from vpro_assets.report import scene_tables
+from vpro_assets.report.metrics import Rate, group, normal_rate, rate
+from vpro_assets.report.table_model import (
+    DIAG_MARK,
+    LATEX_PREAMBLE,
+    ROBUST_MARK,
+    Cell,
+    Table,
+    cell,
+    params,
+    policies,
+)
 
-ROBUST_MARK, DIAG_MARK = "↑", "◇"
-LATEX_MARKS = {tx.ROBUSTNESS: r"$\,\uparrow$", tx.DIAGNOSTIC: r"$\,\diamond$"}
-LATEX_PREAMBLE = r"""% Macros used by these tables (redefine \ci as {} to hide intervals):
-% \usepackage{xcolor}
-\providecommand{\drop}[1]{{\color{gray}\scriptsize$\downarrow$#1}}
-\providecommand{\gain}[1]{{\color{gray}\scriptsize$\uparrow$#1}}
-\providecommand{\ci}[3]{{\tiny\,[#1,#2]\,n=#3}}
-"""
-
-
-@dataclass
-class Cell:
-    rate: Rate
-    drop: float | None = None
-
-    def markdown(self) -> str:
-        if self.rate.sr is None or self.rate.ci is None:
-            return "–" + (f" ({self.rate.errors} err)" if self.rate.errors else "")
-        lo, hi = self.rate.ci
-        d = "" if self.drop is None else (f" ↓{self.drop:.1f}" if self.drop >= 0 else f" ↑{-self.drop:.1f}")
-        err = f", {self.rate.errors} err" if self.rate.errors else ""
-        return f"{self.rate.sr:.1f}{d} (n={self.rate.trials}; {lo:.1f}–{hi:.1f}{err})"
-
-    def latex(self) -> str:
-        if self.rate.sr is None or self.rate.ci is None:
-            return "--"
-        lo, hi = self.rate.ci
-        d = (
-            ""
-            if self.drop is None
-            else (rf"\drop{{{self.drop:.1f}}}" if self.drop >= 0 else rf"\gain{{{-self.drop:.1f}}}")
-        )
-        return rf"{self.rate.sr:.2f}{d}\ci{{{lo:.1f}}}{{{hi:.1f}}}{{{self.rate.trials}}}"
-
-
-@dataclass
-class Table:
-    key: str
-    title: str
-    columns: list[str]
-    rows: list[list] = field(default_factory=list)  # first entry: row label; others Cell or str
-    note: str = ""
-    latex_columns: list[str] | None = None
-
-    def markdown(self) -> str:
-        out = [f"### {self.title}", ""]
-        if self.note:
-            out += [self.note, ""]
-        out.append("| " + " | ".join(self.columns) + " |")
-        out.append("|" + "|".join("---" for _ in self.columns) + "|")
-        for row in self.rows:
-            out.append("| " + " | ".join(c.markdown() if isinstance(c, Cell) else str(c) for c in row) + " |")
-        return "\n".join(out) + "\n"
-
-    def latex(self) -> str:
-        cols = self.latex_columns or [_tex(c) for c in self.columns]
-        lines = [
-            r"\begin{table}[t]",
-            rf"\caption{{{_tex(self.title)}}}",
-            rf"\label{{tab:vpro_{self.key}}}",
-            r"\centering",
-            r"\scriptsize",
-            r"\resizebox{\columnwidth}{!}{%",
-            rf"\begin{{tabular}}{{l{'c' * (len(cols) - 1)}}}",
-            r"\hline",
-            " & ".join(cols) + r" \\",
-            r"\hline",
-        ]
-        for row in self.rows:
-            lines.append(" & ".join(c.latex() if isinstance(c, Cell) else _tex(str(c)) for c in row) + r" \\")
-        lines += [r"\hline", r"\end{tabular}%", "}", r"\end{table}"]
-        return "\n".join(lines) + "\n"
-
-
-def _tex(text: str) -> str:
-    for a, b in (
-        ("\\", r"\textbackslash{}"),
-        ("&", r"\&"),
-        ("%", r"\%"),
-        ("_", r"\_"),
-        ("#", r"\#"),
-        ("↑", r"$\uparrow$"),
-        ("◇", r"$\diamond$"),
-        ("↓", r"$\downarrow$"),
-    ):
-        text = text.replace(a, b)
-    return text
-
-
-@functools.cache
-def params(setting_id: str) -> dict:
-    try:
-        return tx.setting(setting_id).param_dict
-    except Exception:  # a setting of another taxonomy version: no parameters to group by
-        return {}
-
-
-def policies(rows: list[dict]) -> list[str]:
-    return sorted({r["policy_id"] for r in rows})
-
-
-def cell(cell_rows: list[dict], policy_rows: list[dict]) -> Cell:
-    return Cell(rate(cell_rows), drop(cell_rows, policy_rows))
+__all__ = ["LATEX_PREAMBLE", "Cell", "Table", "all_tables", "params", "policies"]
 
 
 def _by_param(
@@ -209,47 +118,6 @@ def view_reliance(rows: list[dict]) -> Table:
     return table
 
 
-def distractor_composition(rows: list[dict]) -> Table:
-    kinds = list(tx.DISTRACTOR_RULES)
-    table = Table(
-        "contact_composition",
-        "Gripper contact composition (% of episodes) per distractor type",
-        ["Policy", "Distractor", "Target only", "Distractor only", "Both", "Neither", "n"],
-    )
-    for pid in policies(rows):
-        cat = [r for r in rows if r["policy_id"] == pid and r["category"] == "task_relevant_distractors"]
-        by = group(cat, lambda r: params(r["setting"]).get("distractor"))
-        for kind in kinds:
-            counts = composition(by.get(kind, []))
-            n = sum(counts.values())
-            pct = [f"{100 * counts[k] / n:.1f}" if n else "–" for k in counts]
-            table.rows.append([pid, kind] + pct + [str(n)])
-    return table
-
-
-def precondition_ambiguity(rows: list[dict]) -> Table:
-    table = Table(
-        "precondition_ambiguity",
-        "Task-Precondition Variation vs Visual State Ambiguity (SR %)",
-        [
-            "Policy",
-            "Normal",
-            "Precondition: Openness",
-            "Precondition: Object Pose",
-            "Ambiguity: Openness",
-            "Ambiguity: Object Pose",
-        ],
-    )
-    for pid in policies(rows):
-        prow = [r for r in rows if r["policy_id"] == pid]
-        cells = []
-        for cat in ("task_precondition_variation", "visual_state_ambiguity"):
-            by = group([r for r in prow if r["category"] == cat], lambda r: params(r["setting"]).get("attribute"))
-            cells += [cell(by.get("receptacle_openness", []), prow), cell(by.get("object_pose", []), prow)]
-        table.rows.append([pid, Cell(normal_rate(prow))] + cells)
-    return table
-
-
 def episodes_table(rows: list[dict]) -> Table:
     table = Table(
         "episodes",
@@ -313,8 +181,9 @@ def all_tables(rows: list[dict]) -> list[Table]:
             },
             rows,
         ),
-        distractor_composition(rows),
-        precondition_ambiguity(rows),
+        scene_tables.distractor_composition(rows),
+        scene_tables.precondition_ambiguity(rows),
+        scene_tables.scene_variants(rows),
         _by_param(
             "Success rate (%) under Target Geometry Variation, by deformation",
             "geometry",

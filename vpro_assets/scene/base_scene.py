@@ -62,6 +62,15 @@ class BaseScene:
         hit = mujoco.mj_ray(model, data, pos, vec / dist, None, 1, -1, geom)
         return hit < 0 or hit >= dist - 0.02
 
+    def on_surface(self, xy) -> bool:
+        """Whether a point is over the surface objects stand on (a ray down from 5 cm above it meets
+        something within 8 cm), not beyond the table's edge."""
+        model, data = self.ray_scene
+        start = np.array([xy[0], xy[1], self.surface_z + 0.05])
+        geom = np.array([-1], dtype=np.int32)
+        hit = mujoco.mj_ray(model, data, start, np.array([0.0, 0.0, -1.0]), None, 1, -1, geom)
+        return 0 <= hit <= 0.08
+
     def to_region_xy(self, world_xy) -> np.ndarray:
         return np.asarray(world_xy, dtype=float) - self.workspace_offset[:2]
 

@@ -112,7 +112,7 @@ class GenContext:
     ) -> np.ndarray:
         """The rule for a new object's nominal spot: on the nearest ring around `around` that has
         a spot clear of every footprint by SPOT_CLEARANCE in every trial row, inside the scene's
-        bounds and inside the central 85% of the agentview image, the spot of that ring with the
+        bounds, over the table (not beyond its edge) and inside the central 85% of the agentview image, the spot of that ring with the
         most clearance (first angle on ties)."""
         lo, hi = self.bounds()
         for r in radii:
@@ -120,7 +120,7 @@ class GenContext:
             for k in range(SPOT_ANGLES):
                 theta = 2 * math.pi * k / SPOT_ANGLES
                 xy = around + r * np.array([math.cos(theta), math.sin(theta)])
-                if np.any(xy < lo) or np.any(xy > hi) or not self.base.in_view(xy):
+                if np.any(xy < lo) or np.any(xy > hi) or not self.base.in_view(xy) or not self.base.on_surface(xy):
                     continue
                 gap = self.clearance(xy, radius, ignore)
                 if gap >= SPOT_CLEARANCE and gap > best_gap + 1e-9:

@@ -115,6 +115,8 @@ def _place(
             qpos[3:] = class_quat(obj, rng)
         if p.invert:
             qpos[3:] = quat_mul(INVERT, qpos[3:])
+        if p.turn is not None:
+            qpos[3:] = quat_mul(np.asarray(p.turn, dtype=float), qpos[3:])
         data.set_joint_qpos(joint, qpos)
         raw.sim.forward()
         now = sim.body_layout(env)

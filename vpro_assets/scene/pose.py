@@ -10,6 +10,7 @@ import numpy as np
 from vpro_assets.core.mjgeom import quat_mul
 
 INVERT = np.array([0.0, 1.0, 0.0, 0.0])  # 180 degrees about the world x axis
+LIE = np.array([math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0])  # 90 degrees about the world x axis: on its side
 _WXYZ, _XYZW = [3, 0, 1, 2], [1, 2, 3, 0]  # index orders between the (x, y, z, w) and (w, x, y, z) conventions
 
 

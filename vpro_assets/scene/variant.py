@@ -29,6 +29,7 @@ class Placement:
     r_max: float = 0.01
     margin: float = 0.015
     invert: bool = False  # turned upside down (180 degrees about the world x axis)
+    turn: tuple[float, float, float, float] | None = None  # another turn (w, x, y, z) applied like invert
     keep_xy: bool = False  # keep LIBERO's xy of this trial (only the pose or height changes)
     # With keep_xy: where the object would touch a neighbour at LIBERO's xy (a turned bowl's rim
     # landing on a plate's rim and rolling away), a clear spot on a ring around it instead.
