@@ -12,7 +12,8 @@ scene case carries its own once taken, under its own id.
 `ControlEnv` of the case's BDDL without a renderer or camera observations, `env.seed(seed)`,
 `reset()`, `set_init_state(row)`, the wait steps of no-op actions. It compares the starts with
 `vpro_assets.libero.settled.compare`, the tolerances of `vpro drift` (one definition, shipped in
-the pack). Observation cases of one task share their starts: each is settled once.
+the pack). Cases of the same scene share one env, and cases of the same start (the observation
+cases of one task) are settled once.
 """
 
 from __future__ import annotations
@@ -112,31 +113,36 @@ def settle_cases(
         raise PackRegistrationError(f"{pack}: no case {unknown[0]!r} in this pack")
     if trials is not None and trials < 1:
         raise PackRegistrationError(f"trials must be at least 1, got {trials}")
-    starts: dict[tuple, dict] = {}  # (bddl, init_states, row, seed) -> settled start: shared by cases
     records, rows = [], []
-    by_bddl: dict[str, list[str]] = {}
+    by_bddl: dict[str, list[tuple[str, dict[str, str], dict[str, Path]]]] = {}  # one env per scene
     for cid in wanted:
-        if cid in fingerprints["cases"]:
-            by_bddl.setdefault(specs[cid]["pack"]["bddl"], []).append(cid)
-        else:
+        if cid not in fingerprints["cases"]:
             rows.append(empty_row(cid) | {"status": NOT_FINGERPRINTED, "note": "not checked"})
-    for bddl_rel, cids in by_bddl.items():
-        env = _control_env(pack / bddl_rel)
+            continue
+        files = {"bddl": pack / specs[cid]["pack"]["bddl"], "init_states": pack / specs[cid]["pack"]["init_states"]}
+        inputs = {key: sha256_file(path) for key, path in files.items()}
+        by_bddl.setdefault(inputs["bddl"], []).append((cid, inputs, files))
+    starts: dict[tuple, dict] = {}  # (init_states sha256, row, seed) -> settled start: shared by cases
+    for group in by_bddl.values():
+        env = _control_env(group[0][2]["bddl"])
         try:
-            for cid in cids:
+            for cid, inputs, files in group:
                 if progress:
                     progress(cid)
-                init_rel = specs[cid]["pack"]["init_states"]
-                inputs = {"bddl": sha256_file(pack / bddl_rel), "init_states": sha256_file(pack / init_rel)}
-                states = _init_states(pack / init_rel)
+                states = _init_states(files["init_states"])
                 recorded = fingerprints["cases"][cid]["trials"]
                 for trial in sorted(recorded, key=int)[:trials]:
                     seed, row = recorded[trial]["seed"], recorded[trial]["init_row"]
-                    key = (inputs["bddl"], inputs["init_states"], row, seed)
+                    key = (inputs["init_states"], row, seed)
                     if key not in starts:
                         starts[key] = settle_start(env, states[row], seed, fingerprints["wait_steps"])
                     records.append(
-                        {"case": cid, "trial": int(trial), "seed": seed, "inputs": {**inputs, "init_row": row}}
+                        {
+                            "case": cid,
+                            "trial": int(trial),
+                            "seed": seed,
+                            "inputs": {**inputs, "init_row": row},
+                        }
                         | starts[key]
                     )
         finally:

@@ -1,20 +1,21 @@
-"""The run-time layer a pack carries: the toolkit's own perturbation code, copied under a private name.
+"""The run-time layer a pack carries: the toolkit's own code, copied under a private name.
 
-A fork runs a pack's observation cases without the toolkit installed, so the pack carries the code
-that applies them. It is not a second implementation: `runtime_files()` takes the modules the
-fork-facing module (`packs/fork_runtime.py`, shipped as `vpro_libero_fork.py`) imports, follows
-their `vpro_assets` imports to the closure (the observation pipeline, `vpro_assets/perturb/`, and
-the few leaf modules it needs: errors, seeding, the taxonomy, the task record, LIBERO's names), and
-copies each file with one mechanical change: inside import statements, the package name
-`vpro_assets` becomes `_vpro_runtime`. Nothing else differs, byte for byte; the manifest lists
-every copied file with its sha256 like any other file of the pack, and `expected_files()` lets a
-test compare a pack's copy with the toolkit's source.
+A fork runs a pack's observation cases and its drift check without the toolkit installed, so the
+pack carries the code that does it. It is not a second implementation: `runtime_files()` takes the
+modules the fork-facing module (`packs/fork_runtime.py`, shipped as `vpro_libero_fork.py`) imports,
+follows their `vpro_assets` imports to the closure (its parts `packs/fork_registry.py`,
+`fork_env.py` and `fork_drift.py`, the observation pipeline `vpro_assets/perturb/`, and the few
+leaf modules they need: errors, hashing, seeding, the taxonomy, the task record, LIBERO's names,
+the settled-start comparison), and copies each file with one mechanical change: inside import
+statements, the package name `vpro_assets` becomes `_vpro_runtime`. Nothing else differs, byte for
+byte; the manifest lists every copied file with its sha256 like any other file of the pack
+(tests/packs/test_vendor.py compares a pack's copy with the toolkit's source).
 
 The closure may import only the standard library, numpy, mujoco, and cv2 and scipy (robosuite
 depends on opencv-python and scipy, so every LIBERO fork has them), plus LIBERO, robosuite and
-torch inside functions of the fork module (the fork's own). A toolkit module that pulls anything else (the LIBERO bridge,
-which writes LIBERO's config; yaml; trimesh) is refused when the pack is written, so the pack
-layer stays importable on its own.
+torch inside functions of the pack runtime's modules (the fork's own). A toolkit module that pulls
+anything else (the LIBERO bridge, which writes LIBERO's config; yaml; trimesh) is refused when the
+pack is written, so the pack layer stays importable on its own.
 """
 
 from __future__ import annotations
