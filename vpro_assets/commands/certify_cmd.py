@@ -62,6 +62,11 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--write-only", action="store_true", help="run nothing; write the certificate and document from the database"
     )
+    p.add_argument(
+        "--no-replays",
+        action="store_true",
+        help="write without replaying failed trials (their reasons: only those already replayed)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress line")
     p.set_defaults(run=run_certify_cmd)
 
@@ -111,7 +116,7 @@ def run_certify_cmd(args) -> int:
             f"({3600 * summary.recorded / max(summary.elapsed, 1e-9):.0f} per hour)",
             file=sys.stderr,
         )
-    certificate = write_outputs(catalog, catalog_file, args.results, outputs)
+    certificate = write_outputs(catalog, catalog_file, args.results, outputs, replays=not args.no_replays)
     entries = certificate["cases"].values()
     solved, trials = sum(e["solved"] for e in entries), sum(e["trials"] for e in entries)
     print(

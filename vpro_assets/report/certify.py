@@ -172,9 +172,14 @@ def _picture_name(case_id: str) -> str:
 
 
 def explain_failures(
-    results_map: dict[str, solvability.CaseResult], results: Path, pictures: Path, settings: EpisodeSettings
+    results_map: dict[str, solvability.CaseResult],
+    results: Path,
+    pictures: Path,
+    settings: EpisodeSettings,
+    replays: bool = True,
 ) -> dict[tuple[str, int], dict]:
-    """(case, trial) -> {reason, reproduced, picture} for every failed trial, replayed where not cached."""
+    """(case, trial) -> {reason, reproduced, picture} for every failed trial, replayed where not
+    cached (`replays=False`: the cached ones only)."""
     path = _replays_path(results)
     cache: dict[str, dict] = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
     out: dict[tuple[str, int], dict] = {}
@@ -188,6 +193,10 @@ def explain_failures(
                 if not want_picture or (pic and (pictures / pic).is_file()):
                     out[(cid, t)] = cached
                     continue
+            if not replays:
+                if cached is not None and cached["final_state"] == r.final_state[t]:
+                    out[(cid, t)] = cached
+                continue
             log.info("replaying %s trial %d%s", cid, t, " (rendered)" if want_picture else "")
             try:
                 rep = replay(r.case, t, settings, render=want_picture, resolution=PICTURE_RESOLUTION)
@@ -209,7 +218,7 @@ def explain_failures(
     return out
 
 
-def write_outputs(catalog: dict, catalog_file: Path, results: Path, outputs: Outputs) -> dict:
+def write_outputs(catalog: dict, catalog_file: Path, results: Path, outputs: Outputs, replays: bool = True) -> dict:
     """Write the certificate and the document from every row of the certification run; the certificate."""
     with ResultsStore(results) as store:
         run = store.run(RUN_ID)
@@ -232,7 +241,7 @@ def write_outputs(catalog: dict, catalog_file: Path, results: Path, outputs: Out
     results_map = solvability.collect(current, rows)
     settings = EpisodeSettings(**{**run["settings"], "render": False})
     outputs.pictures.mkdir(parents=True, exist_ok=True)
-    explained = explain_failures(results_map, results, outputs.pictures, settings)
+    explained = explain_failures(results_map, results, outputs.pictures, settings, replays)
     certificate = solvability.certificate(results_map, catalog_sha, lock_sha, run["settings"], run["versions"])
     cert.write(certificate, outputs.certificate)
     rel = (

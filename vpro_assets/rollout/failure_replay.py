@@ -50,23 +50,35 @@ class Replay:
 
 
 def replay(case: dict, trial: int, settings: EpisodeSettings, render: bool, resolution: int = 256) -> Replay:
-    """Run trial `trial` of `case` with the oracle again (rendered: keep SHEET_FRAMES frames)."""
-    settings = replace(settings, render=render, resolution=resolution, video_dir=None)
+    """Run trial `trial` of `case` with the oracle again, render-free; `render`: snapshot
+    SHEET_FRAMES frames of the agent view across the episode (robosuite's offscreen context on the
+    episode's sim, only at those steps: the episode itself stays render-free)."""
+    settings = replace(settings, render=False, video_dir=None)
     session = EpisodeSession(case, trial, settings)
     policy = OraclePolicy()
     policy.reset(session.episode_info())
     frames, frame_steps = [], []
     every = max(1, session.limit // (SHEET_FRAMES - 1))
+
+    def snapshot() -> None:
+        sim = session.env.sim
+        if sim._render_context_offscreen is None:  # a render-free env has none: make it on first use
+            # robosuite loads only once LIBERO is configured (its GL backend chosen first)
+            from robosuite.utils.binding_utils import MjRenderContextOffscreen
+
+            MjRenderContextOffscreen(sim, device_id=-1)
+        image = sim.render(width=resolution, height=resolution, camera_name=SHEET_CAMERA)  # bottom-up
+        frames.append(np.asarray(image)[::-1].copy())
+        frame_steps.append(session.steps)
+
     try:
-        obs = session.start(on_reset=policy.bind_env)
+        session.start(on_reset=policy.bind_env)
         while not session.finished:
             if render and session.steps % every == 0:
-                frames.append(np.asarray(obs[f"{SHEET_CAMERA}_image"])[::-1].copy())
-                frame_steps.append(session.steps)
-            obs = session.step(policy.next_action())
+                snapshot()
+            session.step(policy.next_action())
         if render:
-            frames.append(np.asarray(obs[f"{SHEET_CAMERA}_image"])[::-1].copy())
-            frame_steps.append(session.steps)
+            snapshot()
         controller = policy.controller
         result = session.result()
         unmet = [] if controller is None else [" ".join(g) for g in controller.goal if not controller.holds(g)]
