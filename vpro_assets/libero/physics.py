@@ -43,7 +43,7 @@ from vpro_assets.libero import bridge as libero_bridge
 
 log = logging.getLogger(__name__)
 
-MODEL_CACHE_SIZE = 2  # compiled models kept per process (a LIBERO scene model is tens of MB)
+MODEL_CACHE_SIZE = 1  # compiled models kept per process: a LIBERO scene model is ~200 MB (textures)
 
 
 @dataclass

@@ -78,7 +78,9 @@ class BaseScene:
 BASE_FIXTURE_SEED = 0
 
 
-@functools.lru_cache(maxsize=8)
+# Two kept per process: a build worker takes the cases of one task at a time, and each base scene
+# holds its env's MjModel (ray_scene), ~200 MB for a LIBERO scene (8 of them were 1.6 GB per worker).
+@functools.lru_cache(maxsize=2)
 def base_scene(task_key: str) -> BaseScene:
     task = get_task(task_key)
     path = libero_bridge.bddl_path(task.suite, task.name)
