@@ -41,6 +41,7 @@ RUN_ID = "certify"
 POLICY = "oracle"
 PICTURE_RESOLUTION = 160
 SHOWN_UNBUILT = 3
+SIM_KEYS = ("mujoco", "robosuite")
 MAX_REPLAYS = 3  # failed trials replayed per case (the first one rendered, for its picture)
 
 
@@ -262,7 +263,17 @@ def write_outputs(catalog: dict, catalog_file: Path, results: Path, outputs: Out
     header = {
         "catalog": f"`catalog.json` sha256 {catalog_sha[:12]}, `scene_artifacts.lock.json` sha256 "
         f"{(lock_sha or 'none')[:12]}",
-        "simulator": ", ".join(f"{k} {v}" for k, v in sorted(run["versions"].items()) if k in ("mujoco", "robosuite")),
+        "simulator": "; ".join(
+            sorted(
+                {
+                    ", ".join(
+                        f"{k} {v}" for k, v in sorted((r.get("simulator") or run["versions"]).items()) if k in SIM_KEYS
+                    )
+                    for r in ok_rows
+                }
+            )
+        )
+        + " (per trial in the results database's `simulator` column)",
         "certified": f"{certified} of {certifiable} certifiable cases (40 Normal baselines + {scene_total} scene cases); "
         f"{len(ok_rows)} trials",
         "episode time": (
