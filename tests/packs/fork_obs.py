@@ -1,6 +1,7 @@
 """Observation cases in a fork venv, shared by the robosuite 1.4 (`-m fork`) and 1.5 (`-m fork15`)
-tests: one case of every observation category on one task, packed, registered with the pack's own
-module in the fork venv and run through a fork-style loop after `wrap` (tests/packs/fork_obs_check.py)."""
+tests: one case of every observation category (on libero_goal-03, the blackout on libero_goal-09),
+packed, registered with the pack's own module in the fork venv and run through a fork-style loop
+after `wrap` (tests/packs/fork_obs_check.py)."""
 
 from __future__ import annotations
 
@@ -26,7 +27,8 @@ OBS_CASES = {
     "target_object_masking": f"{TASK}/target_object_masking/ratio50-always-v1",
     "target_receptacle_masking": f"{TASK}/target_receptacle_masking/ratio50-always-v1",
     "interaction_cue_masking": f"{TASK}/interaction_cue_masking/gripper-v1",
-    "temporary_observation_corruption": f"{TASK}/temporary_observation_corruption/blackout-phase_approach-v1",
+    # The allocation gives libero_goal-03 no approach-phase blackout; libero_goal-09 has one.
+    "temporary_observation_corruption": "libero_goal-09/temporary_observation_corruption/blackout-phase_approach-v1",
     "view_unavailability": f"{TASK}/view_unavailability/wrist-single_view-v1",
     "camera_staleness": f"{TASK}/camera_staleness/wrist-delay1-v1",
     "cross_view_contradiction": f"{TASK}/cross_view_contradiction/existence-third_person-v1",
