@@ -104,6 +104,11 @@ def test_a_trial_that_raises_is_an_error_never_unsolved(tmp_path, monkeypatch):
     assert collected[NORMAL].trials == 0 and list(collected[NORMAL].errors) == [0]
 
 
+# Behind the markers until it has run green: building its 22 scene cases (12 of them generate a
+# deformed mesh with coacd) and 52 oracle episodes is over 15 minutes on 2 cores, too much for the
+# default run; `pytest -m certify -k stratified tests/report/test_certify.py`.
+@pytest.mark.slow
+@pytest.mark.certify
 def test_certify_stratified_sample(tmp_path, monkeypatch):
     """The default check: one Normal task per suite and one scene case per scene setting, 2 trials,
     render-free with 2 workers; the scene cases built first. Asserts solved trials: every Normal
