@@ -23,7 +23,12 @@ NOISE_STD = 64.0  # additive Gaussian noise, uint8 units (0.25 of full scale), c
 STALENESS_DELAYS = (5, 10, 20)  # control steps: 0.25 s, 0.5 s, 1 s (level 1 = one openpi replanning cycle)
 FREEZE_STEP = 30  # the view keeps showing the frame of this step from then on
 REPLAY_START, REPLAY_WINDOW = 40, 20  # from step 40 the view loops over its frames 20..39
-CONTRADICTION_OFFSET_M = 0.10  # the target drawn displaced by 10 cm in the manipulated view
+CONTRADICTION_OFFSET_M = 0.10  # quantity: the duplicate drawn at least 10 cm from the target
+# Position (version 2): the target drawn with its projected centre at least this share of the image
+# height from the real one (32 px at 128), in view (version 1 shifted it 10 cm in the world, out
+# of the wrist camera's view on most steps: docs/perturbations.md).
+CONTRADICTION_MIN_SHIFT = 0.25
+CONTRADICTION_VERSIONS = {"quantity": 1, "existence": 1, "position": 2, "state": 1}
 # Cross-view contradiction: the scene edit that makes each attribute disagree between the views.
 CONTRADICTION_EDITS = {
     "quantity": "duplicate_target",
@@ -177,17 +182,18 @@ def _evidence_settings() -> list[Setting]:
     out: list[Setting] = []
     for attribute, edit in CONTRADICTION_EDITS.items():
         for view in VIEWS:
-            out.append(
-                _setting(
-                    "cross_view_contradiction",
-                    f"{attribute}-{view}",
-                    attribute=attribute,
-                    edit=edit,
-                    view=view,
-                    camera=VIEWS[view],
-                    offset_m=CONTRADICTION_OFFSET_M if attribute == "position" else None,
-                )
+            # (the other attributes keep the key offset_m=None of version 1, so their settings keep their bytes)
+            extent = {"min_shift": CONTRADICTION_MIN_SHIFT} if attribute == "position" else {"offset_m": None}
+            setting = _setting(
+                "cross_view_contradiction",
+                f"{attribute}-{view}",
+                attribute=attribute,
+                edit=edit,
+                view=view,
+                camera=VIEWS[view],
+                **extent,
             )
+            out.append(dataclasses.replace(setting, version=CONTRADICTION_VERSIONS[attribute]))
     out.append(
         _setting(
             "prediction_reality_divergence",

@@ -90,7 +90,10 @@ def render_taxonomy_doc(catalog: dict | None = None) -> str:
         f"({', '.join(f'{d / tx.CONTROL_HZ:g} s' for d in tx.STALENESS_DELAYS)}); freeze at step {tx.FREEZE_STEP}; "
         f"replay from step {tx.REPLAY_START} loops the view's frames {tx.REPLAY_START - tx.REPLAY_WINDOW}.."
         f"{tx.REPLAY_START - 1}.",
-        f"- Cross-view position contradiction: the target drawn {tx.CONTRADICTION_OFFSET_M:g} m away in one view.",
+        f"- Cross-view position contradiction (version 2): the target drawn elsewhere in one view, its projected "
+        f"centre at least {tx.CONTRADICTION_MIN_SHIFT:g} of the image height from the real one and kept in view "
+        "(docs/perturbations.md); quantity: the duplicate drawn at least "
+        f"{tx.CONTRADICTION_OFFSET_M:g} m from the target.",
         "- Geometry severities: " + "; ".join(f"{k} {p} {v}" for k, (p, v) in tx.GEOMETRY_SEVERITY.items()) + ".",
         f"- Twist (version 2) first makes each slice elliptical, r scaled by 1 + e cos 2 phi with e in "
         f"{tx.TWIST_ELLIPTICITY}, so round targets change shape too (docs/geometry.md).",

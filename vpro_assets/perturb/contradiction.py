@@ -8,8 +8,12 @@ the truthful view is byte-identical to a clean render. Edits by attribute:
   observation of the episode, shifted by `DUPLICATE_OFFSET_M` (at least 1.2 target widths) in a
   horizontal direction drawn per trial; it stays there while the real target is moved;
 - existence (`hide_target`): the target's geoms are not drawn;
-- position (`displace_target`): the target is drawn shifted by `offset_m` in a horizontal
-  direction drawn per trial, following the real target;
+- position (`displace_target`): the target is drawn shifted horizontally so that it stays in the
+  manipulated camera's view and is clearly elsewhere: its projected centre moved by at least
+  `min_shift` of the image height (more, up to its own projected size, where that keeps it as
+  visible), in view and not hidden behind the gripper or a fixture whenever the real target is
+  (`displacement`: chosen per step, the direction drawn per trial first); it follows the real
+  target;
 - state (`other_state`): where the goal involves an articulated fixture, its moving parts (the
   joint the goal names, e.g. the top drawer) are drawn at the other end of their joint range
   (closed drawn open, off knob drawn on); otherwise the target is drawn upside down (rotated 180
@@ -26,9 +30,11 @@ import numpy as np
 
 from vpro_assets.benchmark.taxonomy import CONTRADICTION_EDITS, CONTRADICTION_OFFSET_M, VIEWS
 from vpro_assets.core.errors import InvalidParameterError, VProError
+from vpro_assets.perturb import displacement as dp
 from vpro_assets.perturb import scene_edits as se
 from vpro_assets.perturb.base import Episode, Perturbation, param
 from vpro_assets.perturb.entities import Entity, EntityIndex
+from vpro_assets.perturb.rendering import render_context
 
 DUPLICATE_OFFSET_M = CONTRADICTION_OFFSET_M
 FLIP = np.diag([1.0, -1.0, -1.0])  # 180 degrees about the world x axis
@@ -55,23 +61,33 @@ class Contradiction(Perturbation):
             )
         self.camera = param(case_id, params, "camera", str, lambda v: v in VIEWS.values())
         if self.attribute == "position":
-            self.offset_m = float(param(case_id, params, "offset_m", (int, float), lambda v: 0 < v < 1, "metres"))
+            self.min_shift = float(
+                param(
+                    case_id, params, "min_shift", (int, float), lambda v: 0 < v < 0.5, "a fraction of the image height"
+                )
+            )
         self.use_articulation = self.attribute == "state" and bool(task.articulations)
         if task.target is None and not self.use_articulation:
             raise InvalidParameterError(
                 f"case {case_id}: task {task.key} has no target (and no articulated fixture) to contradict"
             )
         self.direction = np.zeros(3)
+        self.angle = 0.0
         self.entities: EntityIndex | None = None
         self.sim: Any = None  # robosuite's MjSim of the episode
         self._anchor: list[dict] | None = None
         self._scratch: mujoco.MjData | None = None
         self._joints: list[tuple[int, float, float]] = []
+        self._samples: dp.Samples | None = None
+        self._geomgroup = np.ones(6, dtype=np.uint8)
+        self._previous: int | None = None  # the direction the displaced target was drawn in last
+        self.last_choice: dp.Choice | None = None  # where it was drawn last (read by tests)
 
     def reset(self, episode: Episode) -> None:
-        angle = float(episode.rng("contradiction-direction").uniform(0, 2 * np.pi))
-        self.direction = np.array([np.cos(angle), np.sin(angle), 0.0])
+        self.angle = float(episode.rng("contradiction-direction").uniform(0, 2 * np.pi))
+        self.direction = np.array([np.cos(self.angle), np.sin(self.angle), 0.0])
         self._anchor = None
+        self._previous, self.last_choice = None, None
 
     def attach(self, sim, entities: EntityIndex) -> None:
         self.sim, self.entities = sim, entities
@@ -79,6 +95,11 @@ class Contradiction(Perturbation):
         if self.use_articulation:
             self._scratch = mujoco.MjData(sim.model._model)
             self._joints = entities.articulation_joints()
+        if self.attribute == "position":
+            target = self.target
+            self._samples = dp.target_samples(entities.model, target.visual_geoms or target.geoms)
+            self._geomgroup = render_context(sim).vopt.geomgroup.copy()  # what the cameras draw
+            self._previous, self.last_choice = None, None
 
     @property
     def index(self) -> EntityIndex:
@@ -133,7 +154,7 @@ class Contradiction(Perturbation):
         if self.attribute == "existence":
             se.remove(scn, idx)
         elif self.attribute == "position":
-            se.transform(scn, idx, offset=self.direction * self.offset_m)
+            se.transform(scn, idx, offset=self.displacement())
         elif self.attribute == "state":
             se.transform(scn, idx, rotation=FLIP, center=se.visual_center(scn, idx, model))
         else:
@@ -141,6 +162,22 @@ class Contradiction(Perturbation):
                 self._anchor = [se.snapshot(scn.geoms[i]) for i in idx]
             shift = max(DUPLICATE_OFFSET_M, 1.2 * self._target_width())
             se.append(scn, self._anchor, offset=self.direction * shift)
+
+    def displacement(self) -> np.ndarray:
+        """Where to draw the target in this step (`displacement.choose_offset`): at least
+        `min_shift` of the image away, further (up to its own projected size) where it stays as
+        visible as the real target."""
+        if self._samples is None:
+            raise VProError(f"case {self.case_id}: position contradiction used before attach()")
+        model, data = self.index.model, self.sim.data._data
+        camera = dp.Camera.of(model, data, model.camera(self.camera).id)
+        points, normals = self._samples.world(data)
+        size = dp.projected_size(camera, points)
+        shifts = (max(self.min_shift, min(size, dp.MAX_SHIFT)), self.min_shift)
+        visibility = dp.Visibility(model, data, camera, self._geomgroup, self.target.geoms)
+        choice = dp.choose_offset(visibility, points, normals, shifts, self.angle, self._previous)
+        self._previous, self.last_choice = choice.direction, choice
+        return choice.offset
 
     def _other_state(self, scn: mujoco.MjvScene) -> None:
         model, data, scratch = self.index.model, self.sim.data._data, self._scratch

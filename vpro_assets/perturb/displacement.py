@@ -1,0 +1,212 @@
+"""Where a position contradiction draws the target: elsewhere, and in view, in one camera.
+
+A fixed shift in the world (10 cm in version 1) carries the drawn target out of the wrist
+camera's field of view on most steps of an episode (the camera rides on the hand, a few
+centimetres above the target), and the contradiction turns into an existence contradiction.
+Here the shift is chosen per camera and step in the camera's image:
+
+- candidates: horizontal directions (the trial's drawn direction first, then `DIRECTIONS`
+  evenly spaced ones around it), each at the world distance that moves the target's projected
+  centre by `shift` of the image height (the smallest distance on a grid that reaches it);
+- each candidate is scored by the share of the target's sample points (visual mesh vertices)
+  that would be seen there: inside the image (with `MARGIN` of it on every side) and on a clear
+  line of sight from the camera (`mujoco.mj_multiRay` against the geoms the camera draws, the
+  target's own geoms aside, since they are not drawn where the target really is);
+- the first candidate whose share reaches the real target's own share (same test, at its real
+  place) wins, the direction of the previous step first (so the drawn target does not jump
+  between directions while it stays valid); if none does, the candidate with the largest share.
+
+Projection: MuJoCo's camera looks along its frame's -z with +y up, `fovy` is the vertical field
+of view, and LIBERO's frames are square (aspect 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import trimesh
+
+DIRECTIONS = 16  # candidate directions around the horizontal circle
+MARGIN = 0.02  # of the image size on each side: points there count as out of view
+DISTANCES_M = np.geomspace(0.005, 0.6, 96)  # world shifts tried along a direction
+MAX_SHIFT = 0.5  # of the image height: the largest shift tried (a close-up target wider than this
+# cannot be moved by its own size and stay in view)
+SAMPLE_POINTS = 96  # target surface points tested for visibility
+SAMPLE_SEED = 0  # trimesh's surface sampling: the same points in every episode
+NEAR_M = 0.01  # closer than this to the camera plane counts as out of view
+SURFACE_M = 1e-3  # a hit this close to the sampled point is the point itself
+PASS_M = 1e-4  # a ray passing a geom it looks past restarts this far beyond the hit
+MAX_PASSES = 16  # geoms a ray may look past before the point counts as hidden
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A camera's pose and vertical field of view in one state."""
+
+    position: np.ndarray  # (3,) world
+    rotation: np.ndarray  # (3, 3) camera -> world (columns: x right, y up, z backwards)
+    tan_half_fovy: float
+
+    @classmethod
+    def of(cls, model, data, camera_id: int) -> Camera:
+        return cls(
+            data.cam_xpos[camera_id].copy(),
+            data.cam_xmat[camera_id].reshape(3, 3).copy(),
+            float(np.tan(np.radians(model.cam_fovy[camera_id]) / 2)),
+        )
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Image coordinates in [0, 1] (x right, y up; any value outside is outside the image) and
+        depth in front of the camera (metres), of world points (..., 3)."""
+        local = (points - self.position) @ self.rotation
+        depth = -local[..., 2]
+        safe = np.where(depth > NEAR_M, depth, np.nan)
+        xy = local[..., :2] / (safe[..., None] * self.tan_half_fovy)
+        return (xy + 1.0) / 2.0, depth
+
+
+@dataclass(frozen=True)
+class Samples:
+    """Points on the drawn target's surface with their outward normals, in their geoms' frames."""
+
+    geoms: np.ndarray  # (N,) geom of each point
+    points: np.ndarray  # (N, 3)
+    normals: np.ndarray  # (N, 3)
+
+    def world(self, data) -> tuple[np.ndarray, np.ndarray]:
+        """World points and normals in the current state."""
+        rot = data.geom_xmat[self.geoms].reshape(-1, 3, 3)
+        points = np.einsum("nij,nj->ni", rot, self.points) + data.geom_xpos[self.geoms]
+        return points, np.einsum("nij,nj->ni", rot, self.normals)
+
+
+def target_samples(model, geoms: tuple[int, ...], count: int = SAMPLE_POINTS) -> Samples:
+    """`count` area-weighted points on the target's visual meshes (trimesh's sampling, fixed seed;
+    boxes for other geom types), with their face normals."""
+    surfaces = []
+    for g in geoms:
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            mesh = model.geom_dataid[g]
+            v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+            f0, nf = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
+            verts, faces = model.mesh_vert[v0 : v0 + nv], model.mesh_face[f0 : f0 + nf]
+            surfaces.append((g, trimesh.Trimesh(verts, faces, process=False)))
+        else:
+            box = trimesh.creation.box(2 * model.geom_aabb[g][3:])
+            surfaces.append((g, box.apply_translation(model.geom_aabb[g][:3])))
+    total = sum(mesh.area for _, mesh in surfaces)
+    geom_ids, points, normals = [], [], []
+    for g, mesh in surfaces:
+        take = max(1, round(count * mesh.area / total)) if total > 0 else 1
+        pts, faces = trimesh.sample.sample_surface(mesh, take, seed=SAMPLE_SEED)
+        geom_ids.append(np.full(len(pts), g))
+        points.append(np.asarray(pts, dtype=np.float64))
+        normals.append(np.asarray(mesh.face_normals[faces], dtype=np.float64))
+    return Samples(np.concatenate(geom_ids), np.concatenate(points), np.concatenate(normals))
+
+
+class Visibility:
+    """Which target points a camera would see with the target drawn shifted by some offset."""
+
+    def __init__(self, model, data, camera: Camera, geomgroup: np.ndarray, target_geoms: tuple[int, ...]):
+        self.model, self.data, self.camera = model, data, camera
+        self.geomgroup = np.asarray(geomgroup, dtype=np.uint8)
+        self.target = np.asarray(target_geoms, dtype=np.int32)
+        self.near = float(model.vis.map.znear * model.stat.extent)  # MuJoCo's near clipping distance
+
+    def share(self, points: np.ndarray, normals: np.ndarray, offset: np.ndarray) -> float:
+        """The share of the target's silhouette the camera would show with the target drawn shifted
+        by `offset` (world `points` and `normals` at its real place): of the points facing the
+        camera, each weighted by the image area it covers (cosine over squared distance), those
+        inside the image margins and on a clear line of sight through the rest of the scene.
+        Out-of-frame parts count as unseen, like parts hidden behind the gripper or a fixture."""
+        shifted = points + offset
+        view = self.camera.position - shifted
+        distance = np.linalg.norm(view, axis=1)
+        weight = np.maximum(np.einsum("ni,ni->n", normals, view) / distance, 0.0) / np.maximum(distance, NEAR_M) ** 2
+        if not weight.sum() > 0:
+            return 0.0
+        xy, depth = self.camera.project(shifted)
+        seen = (weight > 0) & np.all((xy >= MARGIN) & (xy <= 1 - MARGIN), axis=-1) & (depth > NEAR_M)
+        idx = np.flatnonzero(seen)
+        if len(idx):
+            seen[idx] = self._clear(shifted[idx])
+        return float(weight[seen].sum() / weight.sum())
+
+    def _clear(self, points: np.ndarray) -> np.ndarray:
+        """On a clear line of sight (`mujoco.mj_ray` against the geoms the camera draws), past what
+        is nearer than the camera's near clipping distance (drawing clips it: the wrist camera
+        sits inside the hand's meshes) and past the target's own geoms (not drawn where the
+        target really is)."""
+        vec = points - self.camera.position
+        lengths = np.linalg.norm(vec, axis=1)
+        return np.array([self._clear_ray(v / n, float(n)) for v, n in zip(vec, lengths)], dtype=bool)
+
+    def _clear_ray(self, unit: np.ndarray, length: float) -> bool:
+        travelled, hit = 0.0, np.zeros(1, dtype=np.int32)
+        for _ in range(MAX_PASSES):
+            start = self.camera.position + unit * travelled
+            d = mujoco.mj_ray(self.model, self.data, start, unit, self.geomgroup, 1, -1, hit)
+            if hit[0] < 0 or travelled + d >= length - SURFACE_M:
+                return True
+            if hit[0] not in self.target and travelled + d >= self.near:
+                return False
+            travelled += d + PASS_M
+        return False
+
+
+def projected_size(camera: Camera, points: np.ndarray) -> float:
+    """The larger side of the box around the points' projections, of the image height (parts
+    outside the image included)."""
+    xy, _ = camera.project(points)
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    return float((xy.max(axis=0) - xy.min(axis=0)).max()) if len(xy) else 0.0
+
+
+@dataclass(frozen=True)
+class Choice:
+    offset: np.ndarray  # world shift of the drawn target
+    direction: int | None  # index of the candidate direction, None when none reaches the shift
+    shift: float  # of the image height, from the target's projected centre
+    share: float  # silhouette share seen, drawn at the offset
+    real_share: float  # silhouette share seen at the real place
+
+
+def choose_offset(
+    visibility: Visibility,
+    points: np.ndarray,
+    normals: np.ndarray,
+    shifts: tuple[float, ...],
+    first_angle: float,
+    previous: int | None = None,
+) -> Choice:
+    """Where to draw the target (world `points` and `normals` at its real place): see the module
+    doc. `shifts` are tried in order (the first that some direction satisfies wins)."""
+    camera = visibility.camera
+    zero = np.zeros(3)
+    real_share = visibility.share(points, normals, zero)
+    c_xy, _ = camera.project(points.mean(axis=0))
+    angles = first_angle + 2 * np.pi * np.arange(DIRECTIONS) / DIRECTIONS
+    directions = np.stack([np.cos(angles), np.sin(angles), np.zeros(DIRECTIONS)], axis=1)
+    moved = points.mean(axis=0) + directions[:, None, :] * DISTANCES_M[None, :, None]  # (K, D, 3)
+    m_xy, _ = camera.project(moved)
+    moved_px = np.linalg.norm(m_xy - c_xy, axis=-1)  # NaN behind the camera: compares False below
+    order = list(range(DIRECTIONS))
+    if previous is not None:
+        order.remove(previous)
+        order.insert(0, previous)
+    best = Choice(zero, None, 0.0, 0.0, real_share)
+    for shift in shifts:
+        for k in order:
+            hits = np.flatnonzero(moved_px[k] >= shift)
+            if not len(hits):
+                continue
+            offset = directions[k] * DISTANCES_M[hits[0]]
+            share = visibility.share(points, normals, offset)
+            if share >= real_share:
+                return Choice(offset, k, shift, share, real_share)
+            if best.direction is None or share > best.share:
+                best = Choice(offset, k, shift, share, real_share)
+    return best
