@@ -6,14 +6,16 @@ centimetres above the target), and the contradiction turns into an existence con
 Here the shift is chosen per camera and step in the camera's image:
 
 - candidates: horizontal directions (the trial's drawn direction first, then `DIRECTIONS`
-  evenly spaced ones around it), each at the world distance that moves the target's projected
-  centre by `shift` of the image height (the smallest distance on a grid that reaches it);
-- each candidate is scored by the share of the target's sample points (visual mesh vertices)
-  that would be seen there: inside the image (with `MARGIN` of it on every side) and on a clear
-  line of sight from the camera (`mujoco.mj_multiRay` against the geoms the camera draws, the
-  target's own geoms aside, since they are not drawn where the target really is);
-- the first candidate whose share reaches the real target's own share (same test, at its real
-  place) wins, the direction of the previous step first (so the drawn target does not jump
+  evenly spaced ones around it), each at the smallest world distance on a grid that moves the
+  target's projected centre by `shift` of the image height; shifts are tried in the caller's
+  order (the contradiction: the target's own projected size, then its `min_shift`);
+- each candidate is scored by the share of the target's silhouette that would be seen there:
+  area-weighted points on its visual meshes, those facing the camera weighted by the image area
+  they cover, seen when inside the image (with `MARGIN` of it on every side) and on a clear line
+  of sight (`mujoco.mj_ray` against the geoms the camera draws, past the near clipping distance
+  and past the target's own geoms, which are not drawn where the target really is);
+- the first candidate whose share reaches the real target's own share (same measure, at its
+  real place) wins, the direction of the previous step first (so the drawn target does not jump
   between directions while it stays valid); if none does, the candidate with the largest share.
 
 Projection: MuJoCo's camera looks along its frame's -z with +y up, `fovy` is the vertical field
