@@ -17,7 +17,7 @@ from vpro_assets.packs.archive import extract_archive
 from vpro_assets.packs.fork_drift import load_fingerprints, settle_cases
 from vpro_assets.packs.fork_registry import PackRegistrationError
 from vpro_assets.packs.manifest import PackError
-from vpro_assets.packs.writer import pack_fingerprints, verify_pack, write_pack
+from vpro_assets.packs.writer import pack_fingerprints, pack_names, verify_pack, write_pack
 
 OBSERVATION_CASES = [
     "libero_goal-03/camera_staleness/wrist-delay2-v1",
@@ -196,3 +196,13 @@ def test_import_copies_into_a_fork_checkout(catalog, tmp_path):
         timeout=120,
     )
     assert proc.returncode == 2 and "not a LIBERO checkout" in proc.stderr
+
+
+def test_every_case_of_the_catalog_has_its_own_pack_task_name():
+    """Variants of a setting (receptacle_openness-v1-open25, -open50 ...) share the task and the
+    setting, so the pack task name carries the case id's variant suffix."""
+    cases = load_catalog(paths.catalog_path())["cases"]
+    names = [pack_names(c) for c in cases]
+    assert len(set(names)) == len(names) == 3296
+    variant = next(c for c in cases if c["id"].endswith("-open25"))
+    assert pack_names(variant)[1].endswith("receptacle_openness-v1-open25")

@@ -64,8 +64,9 @@ in this folder (exit status 1 names the cases that drifted).
 
 
 def pack_names(case: dict) -> tuple[str, str]:
-    """(suite, task name) of a case inside a pack."""
-    return f"vpro_{case['category']}", f"{case['task']}__{case['setting'].rsplit('/', 1)[1]}"
+    """(suite, task name) of a case inside a pack: the task and the case id's last part, which is the
+    setting's for a base case and adds the variant's suffix for a variant (so variants never collide)."""
+    return f"vpro_{case['category']}", f"{case['task']}__{case['id'].split('/', 2)[2]}"
 
 
 def _case_sources(case: dict) -> dict:
