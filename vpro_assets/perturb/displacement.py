@@ -28,7 +28,6 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-import trimesh
 
 DIRECTIONS = 16  # candidate directions around the horizontal circle
 MARGIN = 0.02  # of the image size on each side: points there count as out of view
@@ -36,7 +35,7 @@ DISTANCES_M = np.geomspace(0.005, 0.6, 96)  # world shifts tried along a directi
 MAX_SHIFT = 0.5  # of the image height: the largest shift tried (a close-up target wider than this
 # cannot be moved by its own size and stay in view)
 SAMPLE_POINTS = 96  # target surface points tested for visibility
-SAMPLE_SEED = 0  # trimesh's surface sampling: the same points in every episode
+SAMPLE_SEED = 0  # the surface sampling's stream: the same points in every episode
 NEAR_M = 0.01  # closer than this to the camera plane counts as out of view
 SURFACE_M = 1e-3  # a hit this close to the sampled point is the point itself
 PASS_M = 1e-4  # a ray passing a geom it looks past restarts this far beyond the hit
@@ -84,28 +83,47 @@ class Samples:
         return points, np.einsum("nij,nj->ni", rot, self.normals)
 
 
+# The 12 triangles of the box [-1, 1]^3 (corner k has coordinates -1/+1 by the bits of k: x 4, y 2, z 1).
+_BOX_FACES = np.array(
+    [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+     [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+)  # fmt: skip
+_BOX_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
+def _triangles(model, g: int) -> np.ndarray:
+    """(F, 3, 3): the triangles of geom g in its frame (its mesh, or its bounding box)."""
+    if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+        mesh = model.geom_dataid[g]
+        v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        f0, nf = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
+        return np.asarray(model.mesh_vert[v0 : v0 + nv], dtype=np.float64)[model.mesh_face[f0 : f0 + nf]]
+    corners = _BOX_CORNERS * model.geom_aabb[g][3:] + model.geom_aabb[g][:3]
+    return corners[_BOX_FACES]
+
+
 def target_samples(model, geoms: tuple[int, ...], count: int = SAMPLE_POINTS) -> Samples:
-    """`count` area-weighted points on the target's visual meshes (trimesh's sampling, fixed seed;
-    boxes for other geom types), with their face normals."""
-    surfaces = []
-    for g in geoms:
-        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
-            mesh = model.geom_dataid[g]
-            v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-            f0, nf = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
-            verts, faces = model.mesh_vert[v0 : v0 + nv], model.mesh_face[f0 : f0 + nf]
-            surfaces.append((g, trimesh.Trimesh(verts, faces, process=False)))
-        else:
-            box = trimesh.creation.box(2 * model.geom_aabb[g][3:])
-            surfaces.append((g, box.apply_translation(model.geom_aabb[g][:3])))
-    total = sum(mesh.area for _, mesh in surfaces)
+    """`count` area-weighted points on the target's visual meshes (boxes for other geom types), with
+    their face normals, from one seeded stream. Sampled here with numpy rather than trimesh because
+    this module ships in packs, whose LIBERO forks have numpy and mujoco but not trimesh."""
+    rng = np.random.default_rng(SAMPLE_SEED)
+    tris = [(g, _triangles(model, g)) for g in geoms]
+    crosses = [np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]) for _, t in tris]
+    areas = [0.5 * np.linalg.norm(c, axis=1) for c in crosses]
+    total = sum(float(a.sum()) for a in areas)
     geom_ids, points, normals = [], [], []
-    for g, mesh in surfaces:
-        take = max(1, round(count * mesh.area / total)) if total > 0 else 1
-        pts, faces = trimesh.sample.sample_surface(mesh, take, seed=SAMPLE_SEED)
-        geom_ids.append(np.full(len(pts), g))
-        points.append(np.asarray(pts, dtype=np.float64))
-        normals.append(np.asarray(mesh.face_normals[faces], dtype=np.float64))
+    for (g, t), cross, area in zip(tris, crosses, areas):
+        take = max(1, round(count * float(area.sum()) / total)) if total > 0 else 1
+        weights = area / area.sum() if area.sum() > 0 else None
+        face = rng.choice(len(t), size=take, p=weights)
+        # Uniform in a triangle: barycentric (1 - sqrt(r1), sqrt(r1)(1 - r2), sqrt(r1) r2).
+        r1, r2 = np.sqrt(rng.random(take)), rng.random(take)
+        a, b, c = t[face, 0], t[face, 1], t[face, 2]
+        pts = (1 - r1)[:, None] * a + (r1 * (1 - r2))[:, None] * b + (r1 * r2)[:, None] * c
+        n = cross[face]
+        geom_ids.append(np.full(take, g))
+        points.append(pts)
+        normals.append(n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12))
     return Samples(np.concatenate(geom_ids), np.concatenate(points), np.concatenate(normals))
 
 
