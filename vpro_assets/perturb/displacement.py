@@ -83,10 +83,11 @@ class Samples:
         return points, np.einsum("nij,nj->ni", rot, self.normals)
 
 
-# The 12 triangles of the box [-1, 1]^3 (corner k has coordinates -1/+1 by the bits of k: x 4, y 2, z 1).
+# The 12 triangles of the box [-1, 1]^3 (corner k has coordinates -1/+1 by the bits of k: x 4, y 2, z 1),
+# in trimesh.creation.box's order, so the samples are the ones trimesh drew before this module shipped.
 _BOX_FACES = np.array(
-    [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-     [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+    [[1, 3, 0], [4, 1, 0], [0, 3, 2], [2, 4, 0], [1, 7, 3], [5, 1, 4],
+     [5, 7, 1], [3, 7, 2], [6, 4, 2], [2, 7, 6], [6, 5, 4], [7, 5, 6]]
 )  # fmt: skip
 _BOX_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
 
@@ -102,24 +103,31 @@ def _triangles(model, g: int) -> np.ndarray:
     return corners[_BOX_FACES]
 
 
+def _sample_triangles(tris: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """(points, face indices): `count` area-weighted points on the triangles, drawn as trimesh's
+    `sample.sample_surface(mesh, count, seed=SAMPLE_SEED)` draws them (the same stream, the same
+    points). Written out with numpy because this module ships in packs, whose LIBERO forks have
+    numpy and mujoco but not trimesh."""
+    rng = np.random.default_rng(SAMPLE_SEED)
+    origins, vectors = tris[:, 0], tris[:, 1:] - tris[:, :1]
+    cum = np.cumsum(0.5 * np.linalg.norm(np.cross(vectors[:, 0], vectors[:, 1]), axis=1))
+    face = np.searchsorted(cum, rng.random(count) * cum[-1])
+    lengths = rng.random((count, 2, 1))
+    lengths[lengths.sum(axis=1).reshape(-1) > 1.0] -= 1.0  # folded back into the triangle
+    return (vectors[face] * np.abs(lengths)).sum(axis=1) + origins[face], face
+
+
 def target_samples(model, geoms: tuple[int, ...], count: int = SAMPLE_POINTS) -> Samples:
     """`count` area-weighted points on the target's visual meshes (boxes for other geom types), with
-    their face normals, from one seeded stream. Sampled here with numpy rather than trimesh because
-    this module ships in packs, whose LIBERO forks have numpy and mujoco but not trimesh."""
-    rng = np.random.default_rng(SAMPLE_SEED)
+    their face normals, each geom's share by its area."""
     tris = [(g, _triangles(model, g)) for g in geoms]
     crosses = [np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]) for _, t in tris]
-    areas = [0.5 * np.linalg.norm(c, axis=1) for c in crosses]
-    total = sum(float(a.sum()) for a in areas)
+    areas = [float(0.5 * np.linalg.norm(c, axis=1).sum()) for c in crosses]
+    total = sum(areas)
     geom_ids, points, normals = [], [], []
     for (g, t), cross, area in zip(tris, crosses, areas):
-        take = max(1, round(count * float(area.sum()) / total)) if total > 0 else 1
-        weights = area / area.sum() if area.sum() > 0 else None
-        face = rng.choice(len(t), size=take, p=weights)
-        # Uniform in a triangle: barycentric (1 - sqrt(r1), sqrt(r1)(1 - r2), sqrt(r1) r2).
-        r1, r2 = np.sqrt(rng.random(take)), rng.random(take)
-        a, b, c = t[face, 0], t[face, 1], t[face, 2]
-        pts = (1 - r1)[:, None] * a + (r1 * (1 - r2))[:, None] * b + (r1 * r2)[:, None] * c
+        take = max(1, round(count * area / total)) if total > 0 else 1
+        pts, face = _sample_triangles(t, take)
         n = cross[face]
         geom_ids.append(np.full(take, g))
         points.append(pts)
