@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import copy
+import json
 import sqlite3
 
 import mujoco
@@ -12,6 +13,8 @@ import pytest
 
 from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.benchmark.catalog import find_case, load_catalog
+from vpro_assets.cli import main
+from vpro_assets.commands import settle_cmd
 from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import simulator_versions
@@ -110,6 +113,29 @@ def test_resettle_is_identical_and_a_1cm_move_names_the_case(catalog, settled):
     assert rows[SAMPLE[1]]["status"] == "drifted" and rows[SAMPLE[1]]["object"] == name
     assert rows[SAMPLE[1]]["displacement_cm"] == pytest.approx(1.0, abs=1e-3)
     assert [rows[c]["status"] for c in (SAMPLE[0], SAMPLE[2])] == ["ok", "ok"]
+
+
+def test_fingerprinting_resumes_after_an_interruption(tmp_path, monkeypatch, capsys):
+    """`vpro settle --fingerprints` writes the file after every case; a second run settles only the
+    cases not yet there (a crash mid-run loses at most the case in progress)."""
+    path = tmp_path / "prints.json"
+    assert main(["settle", "--select", SAMPLE[0], "--trials", "1", "--fingerprints", str(path)]) == 0
+    first = path.read_text()
+    settled_now = []
+    real = settle.settle_trial
+
+    def counting(case, trial, wait_steps=WAIT_STEPS):
+        settled_now.append(case["id"])
+        return real(case, trial, wait_steps)
+
+    monkeypatch.setattr(settle_cmd, "settle_trial", counting)
+    args = ["settle", "--select", SAMPLE[0], "--select", SAMPLE[2], "--trials", "1", "--fingerprints", str(path)]
+    assert main(args) == 0
+    assert settled_now == [SAMPLE[2]]
+    assert "1 case(s) already fingerprinted" in capsys.readouterr().out
+    prints = fp.load(path)
+    assert sorted(prints["cases"]) == sorted([SAMPLE[0], SAMPLE[2]])
+    assert prints["cases"][SAMPLE[0]] == json.loads(first)["cases"][SAMPLE[0]]
 
 
 def test_changed_inputs_make_a_fingerprint_stale_not_compared(settled):

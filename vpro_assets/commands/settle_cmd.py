@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from tqdm import tqdm
@@ -18,8 +20,10 @@ from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import simulator_label, simulator_versions
 from vpro_assets.libero.settled import pose_difference
+from vpro_assets.rollout.case_env import case_inputs
 from vpro_assets.rollout.episode import WAIT_STEPS
 from vpro_assets.rollout.settle import SPEED_LIMIT_M_S, settle_trial, trial_problems
+from vpro_assets.scene.build import _worker_init
 
 
 def add_parser(sub) -> None:
@@ -44,6 +48,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--wait-steps", type=int, default=WAIT_STEPS, help=f"no-op steps before the first frame (default {WAIT_STEPS})"
     )
+    p.add_argument(
+        "-j", "--jobs", type=int, default=1, help="processes settling cases in parallel (default 1; ~3 GB each)"
+    )
     p.add_argument("--json", type=Path, metavar="OUT.json", help="write every trial's measurements (poses included)")
     p.add_argument(
         "--compare",
@@ -59,7 +66,9 @@ def add_parser(sub) -> None:
         default=None,
         metavar="FILE",
         help=f"record the settled poses as the cases' fingerprints (default file: {fp.FILE_NAME} beside "
-        "the catalog; cases already there under the same simulator are kept)",
+        "the catalog; cases already there under the same simulator are kept, and cases whose trials are "
+        "all there with the same inputs are not settled again, so an interrupted run resumes; the file "
+        "is written after every case)",
     )
     p.set_defaults(run=run_settle)
 
@@ -77,6 +86,8 @@ def read_settle_json(path: Path) -> dict:
 def run_settle(args) -> int:
     if args.trials < 1:
         raise VProError(f"--trials must be at least 1, got {args.trials}")
+    if args.jobs < 1:
+        raise VProError(f"--jobs must be at least 1, got {args.jobs}")
     if args.wait_steps < 0:
         raise VProError(f"--wait-steps must be at least 0, got {args.wait_steps}")
     other = read_settle_json(args.compare) if args.compare else None
@@ -87,9 +98,13 @@ def run_settle(args) -> int:
         if args.trials > len(case["trial_seeds"]):
             raise VProError(f"--trials {args.trials}: case {case['id']} has {len(case['trial_seeds'])} trials")
     versions = simulator_versions()
+    base = _fingerprint_base(args.fingerprints, versions, args.wait_steps)
     records = []
-    for case in tqdm(cases, desc="settle", unit="case", file=sys.stderr, disable=None):
-        records += [settle_trial(case, t, args.wait_steps) for t in range(args.trials)]
+    for case_records in _settle_cases(cases, args.trials, args.wait_steps, args.jobs, base):
+        records += case_records
+        if args.fingerprints:
+            base = fp.build(case_records, versions, args.wait_steps, base)
+            fp.write(args.fingerprints, base)
     print(
         f"settled {len(records)} trial(s) of {len(cases)} case(s) under {simulator_label(versions)}, "
         f"{args.wait_steps} wait steps"
@@ -120,10 +135,47 @@ def run_settle(args) -> int:
         )
         print(f"wrote {args.json}")
     if args.fingerprints:
-        base = fp.load(args.fingerprints) if Path(args.fingerprints).exists() else None
-        fp.write(args.fingerprints, fp.build(records, versions, args.wait_steps, base))
         print(f"wrote fingerprints of {len(records)} trial(s) to {args.fingerprints}")
     return 0
+
+
+def _fingerprint_base(path: Path | None, versions: dict, wait_steps: int) -> dict | None:
+    """The fingerprints already recorded in `path` under this simulator and wait (None: start afresh)."""
+    if not path or not Path(path).exists():
+        return None
+    base = fp.load(path)
+    return base if base["simulator"] == dict(sorted(versions.items())) and base["wait_steps"] == wait_steps else None
+
+
+def _settle_case(case: dict, trials: int, wait_steps: int) -> list[dict]:
+    return [settle_trial(case, t, wait_steps) for t in range(trials)]
+
+
+def _settle_cases(
+    cases: list[dict], trials: int, wait_steps: int, jobs: int, base: dict | None
+) -> Iterator[list[dict]]:
+    """Each case's settled trials, in catalog order, `jobs` processes in parallel. A case whose first
+    `trials` trials are already in `base` with its current inputs is skipped (resuming a run)."""
+    todo = []
+    for case in cases:
+        entry = (base or {}).get("cases", {}).get(case["id"])
+        if not (
+            entry and all(str(t) in entry["trials"] for t in range(trials)) and entry["inputs"] == case_inputs(case)
+        ):
+            todo.append(case)
+    if len(todo) < len(cases):
+        print(f"{len(cases) - len(todo)} case(s) already fingerprinted under this simulator; settling {len(todo)}")
+    bar = tqdm(total=len(todo), desc="settle", unit="case", file=sys.stderr, disable=None)
+    if jobs <= 1:
+        for case in todo:
+            yield _settle_case(case, trials, wait_steps)
+            bar.update(1)
+    else:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init) as pool:
+            for done in pool.map(_settle_case, todo, [trials] * len(todo), [wait_steps] * len(todo)):
+                yield done
+                bar.update(1)
+    bar.close()
 
 
 def _print_comparison(records: list[dict], other: dict, versions: dict) -> None:

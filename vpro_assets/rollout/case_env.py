@@ -215,6 +215,25 @@ def check_available(case: Mapping) -> None:
         scene_artifacts(case)
 
 
+def _case_files(case: Mapping) -> tuple[dict, str, str]:
+    """A case's built scene (empty for LIBERO's own scenes), BDDL file and initial-state file."""
+    if case.get("level") == "scene" and not is_normal(case):
+        scene = scene_artifacts(case)
+        return scene, str(scene["bddl"]), str(scene["init_states"])
+    task = get_task(case["task"])
+    return (
+        {},
+        str(libero_bridge.bddl_path(task.suite, task.name)),
+        str(libero_bridge.init_state_path(task.suite, task.name)),
+    )
+
+
+def case_inputs(case: Mapping) -> dict:
+    """sha256 of the files a case's starts come from (its BDDL and its initial states)."""
+    _, bddl, init_path = _case_files(case)
+    return {"bddl": sha256_file(bddl), "init_states": sha256_file(init_path)}
+
+
 def env_for_case(
     case: Mapping,
     trial: int,
@@ -231,15 +250,8 @@ def env_for_case(
     if not 0 <= trial < len(rows):
         raise VProError(f"case {case['id']}: trial {trial} out of range (0..{len(rows) - 1})")
     level = "normal" if is_normal(case) else case.get("level")
-    scene: dict[str, Any] = {}
-    if level == "scene":
-        scene = scene_artifacts(case)
-        bddl, init_path = str(scene["bddl"]), str(scene["init_states"])
-        states = _init_states_cached(init_path) if not init_path.endswith(".npy") else np.load(init_path)
-    else:
-        bddl = str(libero_bridge.bddl_path(task.suite, task.name))
-        init_path = str(libero_bridge.init_state_path(task.suite, task.name))
-        states = _init_states_cached(init_path)
+    scene, bddl, init_path = _case_files(case)
+    states = _init_states_cached(init_path) if not init_path.endswith(".npy") else np.load(init_path)
     row = rows[trial]
     if not 0 <= row < len(states):
         raise VProError(f"case {case['id']}: initial-state row {row} out of range ({len(states)} rows in {init_path})")
