@@ -70,26 +70,14 @@ def test_an_inverted_bowl_next_to_a_plate_moves_clear_and_rests_upside_down(tmp_
     """libero_goal-03 trial 0: at LIBERO's spot the turned bowl's rim lands on the plate's rim, tips
     and rolls 21 cm onto the stove (the v1 build failed there). It must start clear, nearby, and
     stay upside down."""
-    from vpro_assets.scene import bddl_doc, build, sim
+    from vpro_assets.scene import build, sim
     from vpro_assets.scene.init_gen import trial_state
 
     cid = "libero_goal-03/task_precondition_variation/object_pose-v1"
     ctx, v = _variant(cid)
     base, bowl = ctx.base, ctx.task.target
     bddl = tmp_path / build._bddl_name(base.task)
-    bddl.write_text(
-        bddl_doc.render_variant(
-            base.bddl,
-            case_id=cid,
-            generator="test",
-            base_task=ctx.case["task"],
-            summary=v.summary,
-            objects=v.objects,
-            fixtures=v.fixtures,
-            regions=v.regions,
-            init=v.init,
-        )
-    )
+    bddl.write_text(build.variant_bddl(ctx.case, "test", base, v))
     env = sim.physics_env(str(bddl))
     try:
         trial_state(

@@ -87,26 +87,14 @@ def test_fixture_only_goals_get_every_distractor_type_near_their_fixture(task, k
 
 def test_a_lying_target_rests_on_its_side_after_settling(tmp_path):
     """The settled first trial of a lying case: the target's own up axis lies near the table plane."""
-    from vpro_assets.scene import bddl_doc, build, sim
+    from vpro_assets.scene import build, sim
     from vpro_assets.scene.init_gen import trial_state
 
     cid = "libero_object-00/task_precondition_variation/object_pose-v1-lying"
     ctx, v = _variant(cid)
     base, target = ctx.base, ctx.task.target
     bddl = tmp_path / build._bddl_name(base.task)
-    bddl.write_text(
-        bddl_doc.render_variant(
-            base.bddl,
-            case_id=cid,
-            generator="test",
-            base_task=ctx.case["task"],
-            summary=v.summary,
-            objects=v.objects,
-            fixtures=v.fixtures,
-            regions=v.regions,
-            init=v.init,
-        )
-    )
+    bddl.write_text(build.variant_bddl(ctx.case, "test", base, v))
     env = sim.physics_env(str(bddl))
     try:
         raw = sim.raw(env)

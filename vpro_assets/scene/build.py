@@ -89,6 +89,23 @@ def _bddl_name(task) -> str:
     return f"{task.name}.bddl"
 
 
+def variant_bddl(case: dict, generator: str, base: BaseScene, variant: SceneVariant) -> str:
+    """The BDDL text of a case's scene variant, checked against its base task's BDDL."""
+    text = bddl_doc.render_variant(
+        base.bddl,
+        case_id=case["id"],
+        generator=generator,
+        base_task=case["task"],
+        summary=variant.summary,
+        objects=variant.objects,
+        fixtures=variant.fixtures,
+        regions=variant.regions,
+        init=variant.init,
+    )
+    bddl_doc.check_variant(text, base.bddl, case["id"])
+    return text
+
+
 def build_case(case: dict, force: bool = False) -> CaseResult:
     """Build one scene case (or confirm it is current)."""
     started = time.perf_counter()
@@ -107,18 +124,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
         variant = generator.fn(GenContext(case=case, base=base))
         ensure_objects(variant.generated_objects, cid, clock.wall)
     with clock.stage("bddl"):
-        text = bddl_doc.render_variant(
-            base.bddl,
-            case_id=cid,
-            generator=f"{generator.name}-v{generator.version}",
-            base_task=case["task"],
-            summary=variant.summary,
-            objects=variant.objects,
-            fixtures=variant.fixtures,
-            regions=variant.regions,
-            init=variant.init,
-        )
-        bddl_doc.check_variant(text, base.bddl, cid)
+        text = variant_bddl(case, f"{generator.name}-v{generator.version}", base, variant)
     hashes = _write_case(case, key, generator, base, variant, text, clock)
     return CaseResult(
         cid,
