@@ -1,5 +1,6 @@
 """The drift check between two simulators (docs/simulator.md): the committed fingerprints (taken
-under the toolkit's pin) against a venv with the reference MuJoCo. Builds that venv once
+under the toolkit's pin, the reference simulator, MuJoCo 3.3.7) against a venv with MuJoCo 3.8.1, the
+previous pin, which changes four Normal starts. Builds that venv once
 (scripts/make-sim-venv.sh, a few minutes; kept in out/sim-venvs/). Run with
 `.venv/bin/python -m pytest -m simulators tests/rollout/test_simulator_drift.py` (about 15 minutes)."""
 
@@ -18,15 +19,15 @@ from vpro_assets.libero.bridge import simulator_versions
 pytestmark = [pytest.mark.slow, pytest.mark.simulators]
 
 REPO = Path(__file__).resolve().parents[2]
-REFERENCE_MUJOCO = "3.2.3"  # openpi's LIBERO pin (docs/simulator.md)
-# The Normal baselines whose first frame differs between MuJoCo 3.8.1 and 3.2.3 / 3.3.7.
+OTHER_MUJOCO = "3.8.1"  # the previous pin (docs/simulator.md)
+# The Normal baselines whose first frame differs between MuJoCo 3.8.1 and 3.3.7 (as 3.2.3).
 DIFFERING = {"libero_10-00/normal", "libero_10-01/normal", "libero_10-07/normal", "libero_spatial-05/normal"}
 
 
 @pytest.fixture(scope="module")
-def reference_venv() -> Path:
-    venv = REPO / "out" / "sim-venvs" / f"mujoco-{REFERENCE_MUJOCO}"
-    subprocess.run(["bash", str(REPO / "scripts" / "make-sim-venv.sh"), REFERENCE_MUJOCO, str(venv)], check=True)
+def other_venv() -> Path:
+    venv = REPO / "out" / "sim-venvs" / f"mujoco-{OTHER_MUJOCO}"
+    subprocess.run(["bash", str(REPO / "scripts" / "make-sim-venv.sh"), OTHER_MUJOCO, str(venv)], check=True)
     return venv
 
 
@@ -37,19 +38,19 @@ def _drift(venv: Path, tmp_path: Path, *args: str) -> subprocess.CompletedProces
     )
 
 
-def test_drift_from_the_fingerprints_to_the_reference_simulator_lists_the_four_tasks(reference_venv, tmp_path):
+def test_drift_from_the_fingerprints_to_mujoco_3_8_1_lists_the_four_tasks(other_venv, tmp_path):
     prints = fp.load()
-    assert prints["simulator"]["mujoco"] == simulator_versions()["mujoco"] != REFERENCE_MUJOCO
-    proc = _drift(reference_venv, tmp_path, "--select", "normal", "--trials", "3", "--no-pictures")
+    assert prints["simulator"]["mujoco"] == simulator_versions()["mujoco"] != OTHER_MUJOCO
+    proc = _drift(other_venv, tmp_path, "--select", "normal", "--trials", "3", "--no-pictures")
     assert proc.returncode == 1, proc.stdout + proc.stderr
-    assert f"this environment: mujoco {REFERENCE_MUJOCO}" in proc.stdout
+    assert f"this environment: mujoco {OTHER_MUJOCO}" in proc.stdout
     listed = next(line for line in proc.stdout.splitlines() if line.startswith("drifted: ")).split()[1:]
     assert set(listed) == DIFFERING, proc.stdout
 
 
-def test_a_drifted_case_gets_its_first_frames_side_by_side(reference_venv, tmp_path):
+def test_a_drifted_case_gets_its_first_frames_side_by_side(other_venv, tmp_path):
     proc = _drift(
-        reference_venv,
+        other_venv,
         tmp_path,
         "--select",
         "libero_10-00/normal",

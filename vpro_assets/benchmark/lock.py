@@ -35,11 +35,15 @@ def load() -> dict[str, dict]:
     return json.loads(path.read_text(encoding="utf-8"))
 
 
-def record(results) -> None:
-    """Merge the hashes of built (or confirmed unchanged) cases into the lock file."""
-    if not results:
-        return
+def record(results, catalog_ids: set[str] | None = None) -> None:
+    """Merge the hashes of built (or confirmed unchanged) cases into the lock file; with
+    `catalog_ids` (the catalog's scene cases), drop entries of cases the catalog no longer has
+    (a renamed or re-versioned setting's old cases)."""
     data = load()
+    if catalog_ids is not None:
+        data = {cid: entry for cid, entry in data.items() if cid in catalog_ids}
+    if not results and catalog_ids is None:
+        return
     trees: dict[str, str] = {}  # objects are shared by cases: hash each folder once
     for r in results:
         entry = {"files": dict(sorted(r.files.items()))}

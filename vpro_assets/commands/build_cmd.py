@@ -45,9 +45,12 @@ def add_parser(sub) -> None:
     b.set_defaults(run=run_build)
 
 
-def scene_cases(args) -> list[dict]:
+def scene_cases(args, everything: bool = False) -> list[dict]:
+    """The selected scene cases (`everything`: all of the catalog's)."""
     catalog = load_catalog(args.catalog or paths.catalog_path())
-    return [c for c in select_cases(catalog, args.select) if c.get("level") == "scene"]
+    return [
+        c for c in (catalog["cases"] if everything else select_cases(catalog, args.select)) if c.get("level") == "scene"
+    ]
 
 
 def run_build(args) -> int:
@@ -59,7 +62,7 @@ def run_build(args) -> int:
     built = sum(r.status == "built" for r in results)
     unchanged = sum(r.status == "unchanged" for r in results)
     if not args.no_record:
-        lock.record([r for r in results if r.status != "failed"])
+        lock.record([r for r in results if r.status != "failed"], {c["id"] for c in scene_cases(args, everything=True)})
     for r in failed:
         print(f"FAILED {r.error}", file=sys.stderr)
     stages: dict[str, float] = {}
