@@ -97,3 +97,38 @@ def test_an_inverted_bowl_next_to_a_plate_moves_clear_and_rests_upside_down(tmp_
     was = base.layouts[0][bowl]["pos"]
     assert 0.005 < np.linalg.norm(qpos[:2] - was[:2]) < 0.05  # moved off the plate's rim, not far
     assert up[2] < -0.95  # still upside down, not tipped onto its side
+
+
+def test_a_mug_in_the_sweep_of_a_door_set_ajar_is_slid_out_of_it(tmp_path):
+    """libero_10-09 trial 7 with the microwave door set 75% open: the door panel cuts through the mug
+    where LIBERO places it (11.6 mm deep; the first full build failed the case on every attempt). The
+    start must have no door/mug contact deeper than the build's 5 mm, the mug nearby and at rest."""
+    from vpro_assets.scene import build, sim
+    from vpro_assets.scene.init_gen import trial_state
+
+    cid = "libero_10-09/task_precondition_variation/receptacle_openness-v1-open75"
+    ctx, v = _variant(cid)
+    base, mug, trial = ctx.base, ctx.task.target, 7
+    bddl = tmp_path / build._bddl_name(base.task)
+    bddl.write_text(build.variant_bddl(ctx.case, "test", base, v))
+    env = sim.physics_env(str(bddl))
+    try:
+        trial_state(
+            env,
+            v,
+            base.rows[base.trial_rows[trial]],
+            base.slots,
+            trial,
+            base.layouts[trial],
+            fixture_seed=ctx.case["trial_seeds"][trial],
+        )
+        deepest = max(
+            (p for a, b, p in sim.penetrations(env, 0.0) if "microdoor" in a + b and mug in a + b), default=0.0
+        )
+        qpos, _ = sim.free_object_state(env)[mug]
+        moving = sim.moving_objects(env)
+    finally:
+        env.close()
+    assert deepest < 0.005, deepest
+    assert np.linalg.norm(qpos[:2] - base.layouts[trial][mug]["pos"][:2]) < 0.06
+    assert not moving

@@ -20,7 +20,9 @@ A rejected draw is redrawn (next attempt) up to MAX_ATTEMPTS times; then InitSta
 case, the trial and the reasons. An object that keeps its LIBERO place first keeps LIBERO's height;
 from the second attempt on it is lowered onto whatever is below it instead: LIBERO's rows hold some
 objects centimetres above the table, and a deformed target dropped from there can bounce off its
-support (MuJoCo 3.2.3's convex collision of thin hull pieces: libero_spatial-01's taper-s2 bowl).
+support (MuJoCo 3.2.3's convex collision of thin hull pieces: libero_spatial-01's taper-s2 bowl);
+and an object that a part set by the variant's joints cuts into (a door set half open swinging
+through the mug in front of it) is slid out of that part.
 """
 
 from __future__ import annotations
@@ -154,6 +156,57 @@ def _place(
         pending.discard(p.instance)
 
 
+def _clear_of_set_parts(env, variant: SceneVariant, margin: float = 0.003, rounds: int = 40) -> None:
+    """Slide every movable object that a part moved by the variant's joint settings now cuts into
+    (a microwave door set half open swings through the mug LIBERO placed in front of it) out of
+    that part, horizontally along the contact normal, until no such contact is left."""
+    if not variant.joints:
+        return
+    raw = sim.raw(env)
+    m, d = raw.sim.model._model, raw.sim.data._data
+    parts: set[int] = set()
+    for js in variant.joints:
+        root = int(m.jnt_bodyid[raw.sim.model.joint_name2id(js.joint)])
+        parts |= {b for b in range(m.nbody) if b == root or _has_ancestor(m, b, root)}
+    objects = {
+        int(m.body_rootid[raw.sim.model.body_name2id(obj.root_body)]): obj.joints[-1]
+        for obj in raw.objects_dict.values()
+        if obj.joints
+    }
+    for _ in range(rounds):
+        # Per object: away from its contacts with the part, towards its own centre (a thin door panel
+        # cutting through a mug has contacts with normals both ways; the centre says which side it is on).
+        away: dict[int, list[np.ndarray]] = {}
+        depth: dict[int, float] = {}
+        for i in range(d.ncon):
+            c = d.contact[i]
+            b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
+            other = b2 if b1 in parts else b1 if b2 in parts else -1
+            root = int(m.body_rootid[other]) if other >= 0 else -1
+            if root not in objects or c.dist >= 0:
+                continue
+            way = (d.xipos[root] - c.pos)[:2]
+            if np.linalg.norm(way) > 1e-6:
+                away.setdefault(root, []).append(way / np.linalg.norm(way))
+                depth[root] = max(depth.get(root, 0.0), -float(c.dist))
+        if not away:
+            return
+        for root, ways in away.items():
+            way = np.mean(ways, axis=0)
+            qpos = np.array(raw.sim.data.get_joint_qpos(objects[root]))
+            qpos[:2] += way / max(np.linalg.norm(way), 1e-9) * (depth[root] + margin)
+            raw.sim.data.set_joint_qpos(objects[root], qpos)
+        raw.sim.forward()
+
+
+def _has_ancestor(m, body: int, ancestor: int) -> bool:
+    while body > 0:
+        body = int(m.body_parentid[body])
+        if body == ancestor:
+            return True
+    return False
+
+
 def _top_below(env, instance: str, lo: float) -> float:
     """Height of the highest surface under `instance`'s footprint (rays cast down from its lowest
     point at the footprint's centre and 4 points halfway to its corners, the object excluded)."""
@@ -260,6 +313,8 @@ def trial_state(
         except InitStateError as exc:
             reasons.append(f"attempt {attempt}: {exc}")
             continue
+        if attempt > 0:
+            _clear_of_set_parts(env, variant)
         sim.settle(env)
         # An object still rocking (a deformed target on an uneven base) gets up to EXTRA_SETTLE more
         # seconds; a state at rest after the first second is never stepped further.
