@@ -131,9 +131,10 @@ def base_scene(task_key: str) -> BaseScene:
 
 def _sound_rows(env, rows: np.ndarray, count: int, task_key: str) -> list[int]:
     """The LIBERO rows trials start from: row k for trial k, except where LIBERO's own row k is
-    unsound (an object falls off the table within one second of zero actions: libero_10-00 row 2
-    drops the cream cheese on the floor), which is replaced by the next sound row after the first
-    `count` (in order), so a scene variant never inherits a defect of the base task's state."""
+    unsound (an object falls off the table within one second of zero actions: under MuJoCo 3.8.1
+    libero_10-00 row 2 drops the cream cheese on the floor; under the pinned 3.3.7 no row of the 40
+    tasks does), which is replaced by the next sound row after the first `count` (in order), so a
+    scene variant never inherits a defect of the base task's state."""
 
     def sound(k: int) -> bool:
         sim.load_state(env, rows[k])

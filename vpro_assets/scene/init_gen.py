@@ -3,8 +3,8 @@
 Trial k of a scene case starts from LIBERO's initial state k of the base task (so it differs from
 the Normal trial k only by the variation), carried into the variant's model by joint name. Where
 LIBERO's own state k is unsound (an object falls off the table in one second of zero actions:
-libero_10-00 row 2), the next sound row after the first 10 is used instead and meta.json lists the
-rows (`BaseScene.trial_rows`). The
+libero_10-00 row 2 under MuJoCo 3.8.1; none under the pinned 3.3.7), the next sound row after the
+first 10 is used instead and meta.json lists the rows (`BaseScene.trial_rows`). The
 generator's placements and joint settings are then applied with the random stream
 `seeding.rng(case_id, k, "scene-init-<attempt>")`, every moved object is lowered onto its support,
 and the scene is settled for one second of zero actions (up to EXTRA_SETTLE more while an object
