@@ -143,7 +143,7 @@ def test_fingerprinting_resumes_after_an_interruption(tmp_path, monkeypatch, cap
     args = ["settle", "--select", SAMPLE[0], "--select", SAMPLE[2], "--trials", "1", "--fingerprints", str(path)]
     assert main(args) == 0
     assert settled_now == [SAMPLE[2]]
-    assert "1 case(s) already fingerprinted" in capsys.readouterr().out
+    assert "1 case(s) already fingerprinted" in capsys.readouterr().err
     prints = fp.load(path)
     assert sorted(prints["cases"]) == sorted([SAMPLE[0], SAMPLE[2]])
     assert prints["cases"][SAMPLE[0]] == json.loads(first)["cases"][SAMPLE[0]]

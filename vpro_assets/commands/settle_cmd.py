@@ -99,27 +99,17 @@ def run_settle(args) -> int:
             raise VProError(f"--trials {args.trials}: case {case['id']} has {len(case['trial_seeds'])} trials")
     versions = simulator_versions()
     base = _fingerprint_base(args.fingerprints, versions, args.wait_steps)
+    print(f"settling {len(cases)} case(s) under {simulator_label(versions)}, {args.wait_steps} wait steps")
+    print("| case | trial | off table | out of view | fastest (m/s) | :init relations not holding |")
+    print("|---|---|---|---|---|---|")
     records = []
     for case_records in _settle_cases(cases, args.trials, args.wait_steps, args.jobs, base):
         records += case_records
+        for rec in case_records:  # as each case finishes: a run of hours shows its findings as it goes
+            print(_table_row(rec), flush=True)
         if args.fingerprints:
             base = fp.build(case_records, versions, args.wait_steps, base)
             fp.write(args.fingerprints, base)
-    print(
-        f"settled {len(records)} trial(s) of {len(cases)} case(s) under {simulator_label(versions)}, "
-        f"{args.wait_steps} wait steps"
-    )
-    print("| case | trial | off table | out of view | fastest (m/s) | :init relations not holding |")
-    print("|---|---|---|---|---|---|")
-    for rec in records:
-        objs = rec["objects"]
-        fastest = max(objs.items(), key=lambda kv: kv[1]["speed"]) if objs else ("-", {"speed": 0.0})
-        print(
-            f"| {rec['case']} | {rec['trial']} | {', '.join(n for n, o in objs.items() if o['left_table']) or '-'} "
-            f"| {', '.join(n for n, o in objs.items() if o['out_of_view']) or '-'} "
-            f"| {fastest[1]['speed']:.3f} {fastest[0] if fastest[1]['speed'] > SPEED_LIMIT_M_S else ''} "
-            f"| {'; '.join(r['relation'] for r in rec['relations'] if not r['holds']) or '-'} |"
-        )
     bad = sum(bool(trial_problems(rec)) for rec in records)
     print(
         f"{bad} of {len(records)} trial(s) start with an object off the table or out of view, moving faster "
@@ -137,6 +127,17 @@ def run_settle(args) -> int:
     if args.fingerprints:
         print(f"wrote fingerprints of {len(records)} trial(s) to {args.fingerprints}")
     return 0
+
+
+def _table_row(rec: dict) -> str:
+    objs = rec["objects"]
+    fastest = max(objs.items(), key=lambda kv: kv[1]["speed"]) if objs else ("-", {"speed": 0.0})
+    return (
+        f"| {rec['case']} | {rec['trial']} | {', '.join(n for n, o in objs.items() if o['left_table']) or '-'} "
+        f"| {', '.join(n for n, o in objs.items() if o['out_of_view']) or '-'} "
+        f"| {fastest[1]['speed']:.3f} {fastest[0] if fastest[1]['speed'] > SPEED_LIMIT_M_S else ''} "
+        f"| {'; '.join(r['relation'] for r in rec['relations'] if not r['holds']) or '-'} |"
+    )
 
 
 def _fingerprint_base(path: Path | None, versions: dict, wait_steps: int) -> dict | None:
@@ -164,7 +165,10 @@ def _settle_cases(
         ):
             todo.append(case)
     if len(todo) < len(cases):
-        print(f"{len(cases) - len(todo)} case(s) already fingerprinted under this simulator; settling {len(todo)}")
+        print(
+            f"{len(cases) - len(todo)} case(s) already fingerprinted under this simulator; settling {len(todo)}",
+            file=sys.stderr,
+        )
     bar = tqdm(total=len(todo), desc="settle", unit="case", file=sys.stderr, disable=None)
     if jobs <= 1:
         for case in todo:
