@@ -92,7 +92,8 @@ def test_pack_carries_the_fingerprints_of_its_cases(catalog, tmp_path):
 
     scene = [c for c in catalog["cases"] if c["level"] == "scene"][:2]
     own = {"inputs": {"bddl": "b", "init_states": "i"}, "trials": {}}
-    prints = pack_fingerprints(scene, dict(toolkit, cases={**toolkit["cases"], scene[0]["id"]: own}))
+    others = {cid: entry for cid, entry in toolkit["cases"].items() if cid not in {c["id"] for c in scene}}
+    prints = pack_fingerprints(scene, dict(toolkit, cases={**others, scene[0]["id"]: own}))
     assert prints["cases"] == {scene[0]["id"]: own}
 
 
