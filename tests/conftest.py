@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 
@@ -28,6 +29,44 @@ def built_catalog():
 # A scene case both the scene-build tests and the rollout end-to-end test use: a recoloured
 # distractor on libero_spatial-00 (registers a generated object; no long mesh work).
 BUILT_SCENE_CASE = "libero_spatial-00/task_relevant_distractors/same_color-v1"
+
+
+def scene_variant(cid: str):
+    """(GenContext, SceneVariant) of a scene case, from its generator (nothing built)."""
+    from vpro_assets.benchmark.catalog import find_case, load_catalog
+    from vpro_assets.core import paths
+    from vpro_assets.scene import plugins
+    from vpro_assets.scene.base_scene import base_scene
+    from vpro_assets.scene.context import GenContext
+
+    case = find_case(load_catalog(paths.catalog_path()), cid)
+    ctx = GenContext(case=case, base=base_scene(case["task"]))
+    return ctx, plugins.generator_for(case).fn(ctx)
+
+
+@contextlib.contextmanager
+def variant_env(cid: str, folder):
+    """(ctx, variant, env): the case's variant BDDL written into `folder` and LIBERO's render-free
+    env of it, as the build makes them; the env is closed on leaving."""
+    from vpro_assets.scene import build, sim
+
+    ctx, variant = scene_variant(cid)
+    bddl = folder / build._bddl_name(ctx.base.task)
+    bddl.write_text(build.variant_bddl(ctx.case, "test", ctx.base, variant))
+    env = sim.physics_env(str(bddl))
+    try:
+        yield ctx, variant, env
+    finally:
+        env.close()
+
+
+def start_trial(env, ctx, variant, trial: int) -> None:
+    """Put `env` in the build's accepted start of `trial` (`init_gen.trial_state`)."""
+    from vpro_assets.scene.init_gen import trial_state
+
+    base = ctx.base
+    row = base.rows[base.trial_rows[trial]]
+    trial_state(env, variant, row, base.slots, trial, base.layouts[trial], ctx.case["trial_seeds"][trial])
 
 
 @pytest.fixture(scope="session")

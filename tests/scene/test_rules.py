@@ -4,22 +4,13 @@ that failed the first full build because the rules had no answer for them."""
 from __future__ import annotations
 
 import numpy as np
+from conftest import scene_variant, start_trial, variant_env
 
-from vpro_assets.benchmark.catalog import find_case, load_catalog
-from vpro_assets.core import paths
-from vpro_assets.scene import plugins
 from vpro_assets.scene.base_scene import base_scene
-from vpro_assets.scene.context import GenContext
-
-
-def _variant(cid: str):
-    case = find_case(load_catalog(paths.catalog_path()), cid)
-    ctx = GenContext(case=case, base=base_scene(case["task"]))
-    return ctx, plugins.generator_for(case).fn(ctx)
 
 
 def test_target_resting_on_a_ramekin_leaves_its_exact_place_to_a_no_wider_competitor():
-    ctx, v = _variant("libero_spatial-05/task_relevant_distractors/familiar_position-v1")
+    ctx, v = scene_variant("libero_spatial-05/task_relevant_distractors/familiar_position-v1")
     competitor = next(p for p in v.placements if p.instance in v.added)
     assert competitor.take_place_of == ctx.task.target
     chosen = ctx.pool_object(v.details["distractor_object"])
@@ -29,7 +20,7 @@ def test_target_resting_on_a_ramekin_leaves_its_exact_place_to_a_no_wider_compet
 
 
 def test_obstacle_for_a_mug_in_front_of_the_microwave_blocks_the_reaching_path_with_room_to_spare():
-    ctx, v = _variant("libero_10-09/task_relevant_distractors/trajectory_obstacle-v1")
+    ctx, v = scene_variant("libero_10-09/task_relevant_distractors/trajectory_obstacle-v1")
     assert v.details["obstructs"] == "reaching"
     spot = np.asarray(v.placements[-1].anchor)
     start, gripper = ctx.familiar_xy(ctx.task.target), ctx.base.gripper_xy
@@ -42,7 +33,7 @@ def test_obstacle_for_a_mug_in_front_of_the_microwave_blocks_the_reaching_path_w
 
 
 def test_a_plate_gets_a_same_affordance_distractor_from_the_bowl_class():
-    ctx, v = _variant("libero_goal-05/task_relevant_distractors/same_affordance-v1")
+    ctx, v = scene_variant("libero_goal-05/task_relevant_distractors/same_affordance-v1")
     assert ctx.target_pool().grasp == "flat"
     assert ctx.pool_object(v.details["distractor_object"]).grasp == "bowl"
 
@@ -86,31 +77,15 @@ def test_an_inverted_bowl_next_to_a_plate_moves_clear_and_rests_upside_down(tmp_
     """libero_goal-03 trial 0: at LIBERO's spot the turned bowl's rim lands on the plate's rim, tips
     and rolls 21 cm onto the stove (the v1 build failed there). It must start clear, nearby, and
     stay upside down."""
-    from vpro_assets.scene import build, sim
-    from vpro_assets.scene.init_gen import trial_state
+    from vpro_assets.scene import sim
 
-    cid = "libero_goal-03/task_precondition_variation/object_pose-v1"
-    ctx, v = _variant(cid)
-    base, bowl = ctx.base, ctx.task.target
-    bddl = tmp_path / build._bddl_name(base.task)
-    bddl.write_text(build.variant_bddl(ctx.case, "test", base, v))
-    env = sim.physics_env(str(bddl))
-    try:
-        trial_state(
-            env,
-            v,
-            base.rows[base.trial_rows[0]],
-            base.slots,
-            0,
-            base.layouts[0],
-            fixture_seed=ctx.case["trial_seeds"][0],
-        )
+    with variant_env("libero_goal-03/task_precondition_variation/object_pose-v1", tmp_path) as (ctx, v, env):
+        start_trial(env, ctx, v, 0)
+        bowl = ctx.task.target
         qpos, _ = sim.free_object_state(env)[bowl]
         body = sim.raw(env).sim.model.body_name2id(sim.raw(env).objects_dict[bowl].root_body)
         up = sim.raw(env).sim.data.body_xmat[body].reshape(3, 3)[:, 2]  # the bowl's own z axis
-    finally:
-        env.close()
-    was = base.layouts[0][bowl]["pos"]
+    was = ctx.base.layouts[0][bowl]["pos"]
     assert 0.005 < np.linalg.norm(qpos[:2] - was[:2]) < 0.05  # moved off the plate's rim, not far
     assert up[2] < -0.95  # still upside down, not tipped onto its side
 
@@ -119,32 +94,17 @@ def test_a_mug_in_the_sweep_of_a_door_set_ajar_is_slid_out_of_it(tmp_path):
     """libero_10-09 trial 7 with the microwave door set 75% open: the door panel cuts through the mug
     where LIBERO places it (11.6 mm deep; the first full build failed the case on every attempt). The
     start must have no door/mug contact deeper than the build's 5 mm, the mug nearby and at rest."""
-    from vpro_assets.scene import build, sim
-    from vpro_assets.scene.init_gen import trial_state
+    from vpro_assets.scene import sim
 
-    cid = "libero_10-09/task_precondition_variation/receptacle_openness-v1-open75"
-    ctx, v = _variant(cid)
-    base, mug, trial = ctx.base, ctx.task.target, 7
-    bddl = tmp_path / build._bddl_name(base.task)
-    bddl.write_text(build.variant_bddl(ctx.case, "test", base, v))
-    env = sim.physics_env(str(bddl))
-    try:
-        trial_state(
-            env,
-            v,
-            base.rows[base.trial_rows[trial]],
-            base.slots,
-            trial,
-            base.layouts[trial],
-            fixture_seed=ctx.case["trial_seeds"][trial],
-        )
+    cid, trial = "libero_10-09/task_precondition_variation/receptacle_openness-v1-open75", 7
+    with variant_env(cid, tmp_path) as (ctx, v, env):
+        start_trial(env, ctx, v, trial)
+        mug = ctx.task.target
         deepest = max(
             (p for a, b, p in sim.penetrations(env, 0.0) if "microdoor" in a + b and mug in a + b), default=0.0
         )
         qpos, _ = sim.free_object_state(env)[mug]
         moving = sim.moving_objects(env)
-    finally:
-        env.close()
     assert deepest < 0.005, deepest
-    assert np.linalg.norm(qpos[:2] - base.layouts[trial][mug]["pos"][:2]) < 0.06
+    assert np.linalg.norm(qpos[:2] - ctx.base.layouts[trial][mug]["pos"][:2]) < 0.06
     assert not moving

@@ -6,27 +6,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import scene_variant, start_trial, variant_env
 
 from generators.fixture_goal import STAND_INS
 from generators.precondition import container_part, opening_value
-from vpro_assets.benchmark.catalog import find_case, load_catalog
-from vpro_assets.core import paths
-from vpro_assets.scene import plugins
-from vpro_assets.scene.base_scene import base_scene
-from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.pose import LIE
-
-
-def _variant(cid: str):
-    case = find_case(load_catalog(paths.catalog_path()), cid)
-    ctx = GenContext(case=case, base=base_scene(case["task"]))
-    return ctx, plugins.generator_for(case).fn(ctx)
 
 
 @pytest.mark.parametrize("level", ["open25", "open50", "open75"])
 def test_a_partly_open_drawer_is_neither_open_nor_closed_and_between_the_base_states(level):
-    base_ctx, base = _variant("libero_10-03/task_precondition_variation/receptacle_openness-v1")
-    ctx, v = _variant(f"libero_10-03/task_precondition_variation/receptacle_openness-v1-{level}")
+    base_ctx, base = scene_variant("libero_10-03/task_precondition_variation/receptacle_openness-v1")
+    ctx, v = scene_variant(f"libero_10-03/task_precondition_variation/receptacle_openness-v1-{level}")
     fixture, region = container_part(ctx)
     assert (fixture, region) == ("white_cabinet_1", "white_cabinet_1_bottom_region")
     obj = ctx.base.object_classes[fixture]
@@ -41,7 +31,7 @@ def test_a_partly_open_drawer_is_neither_open_nor_closed_and_between_the_base_st
 
 
 def test_opening_levels_grow_toward_the_open_range():
-    ctx, _ = _variant("libero_goal-00/task_precondition_variation/receptacle_openness-v1-open25")
+    ctx, _ = scene_variant("libero_goal-00/task_precondition_variation/receptacle_openness-v1-open25")
     assert container_part(ctx) == ("wooden_cabinet_1", "wooden_cabinet_1_middle_region")
     values = [opening_value(ctx, "wooden_cabinet_1", f) for f in (0.0, 0.25, 0.5, 0.75, 1.0)]
     assert values == sorted(values, reverse=True)  # this cabinet opens toward negative joint values
@@ -50,22 +40,22 @@ def test_opening_levels_grow_toward_the_open_range():
 
 
 def test_the_cabinet_top_task_involves_its_top_drawer():
-    ctx, v = _variant("libero_goal-02/task_precondition_variation/receptacle_openness-v1")
+    ctx, v = scene_variant("libero_goal-02/task_precondition_variation/receptacle_openness-v1")
     assert container_part(ctx) == ("wooden_cabinet_1", "wooden_cabinet_1_top_region")
     assert "(Open wooden_cabinet_1_top_region)" in v.init  # LIBERO starts it closed
 
 
 def test_the_ambiguity_ghost_shows_the_half_open_level():
-    ctx, v = _variant("libero_goal-03/visual_state_ambiguity/receptacle_openness-v1-open50")
+    ctx, v = scene_variant("libero_goal-03/visual_state_ambiguity/receptacle_openness-v1-open50")
     assert v.details["joint_value"] == opening_value(ctx, "wooden_cabinet_1", 0.5)
     assert v.details["shown_state"] == "partly_open" and "_open50_" in v.generated_objects[0].name
 
 
 def test_lying_variants_turn_the_target_on_its_side():
-    _, v = _variant("libero_spatial-00/task_precondition_variation/object_pose-v1-lying")
+    _, v = scene_variant("libero_spatial-00/task_precondition_variation/object_pose-v1-lying")
     [p] = v.placements
     assert p.turn == tuple(float(x) for x in LIE) and not p.invert and p.keep_xy
-    _, ghost = _variant("libero_spatial-03/visual_state_ambiguity/object_pose-v1-lying")
+    _, ghost = scene_variant("libero_spatial-03/visual_state_ambiguity/object_pose-v1-lying")
     assert ghost.details["pose"] == "lying" and "_lying_" in ghost.generated_objects[0].name
 
 
@@ -75,7 +65,7 @@ def test_lying_variants_turn_the_target_on_its_side():
     ["same_category", "same_color", "same_shape", "same_affordance", "familiar_position", "trajectory_obstacle"],
 )
 def test_fixture_only_goals_get_every_distractor_type_near_their_fixture(task, kind):
-    ctx, v = _variant(f"{task}/task_relevant_distractors/{kind}-v1")
+    ctx, v = scene_variant(f"{task}/task_relevant_distractors/{kind}-v1")
     fixture = ctx.task.articulations[0].name
     assert ctx.task.target is None and ctx.task.category_of(fixture) in STAND_INS
     [added] = v.added
@@ -87,23 +77,14 @@ def test_fixture_only_goals_get_every_distractor_type_near_their_fixture(task, k
 
 def test_a_lying_target_rests_on_its_side_after_settling(tmp_path):
     """The settled first trial of a lying case: the target's own up axis lies near the table plane."""
-    from vpro_assets.scene import build, sim
-    from vpro_assets.scene.init_gen import trial_state
+    from vpro_assets.scene import sim
 
-    cid = "libero_object-00/task_precondition_variation/object_pose-v1-lying"
-    ctx, v = _variant(cid)
-    base, target = ctx.base, ctx.task.target
-    bddl = tmp_path / build._bddl_name(base.task)
-    bddl.write_text(build.variant_bddl(ctx.case, "test", base, v))
-    env = sim.physics_env(str(bddl))
-    try:
-        raw = sim.raw(env)
-        body = raw.sim.model.body_name2id(raw.objects_dict[target].root_body)
+    with variant_env("libero_object-00/task_precondition_variation/object_pose-v1-lying", tmp_path) as (ctx, v, env):
+        base, raw = ctx.base, sim.raw(env)
+        body = raw.sim.model.body_name2id(raw.objects_dict[ctx.task.target].root_body)
         sim.load_state(env, sim.map_state(base.rows[base.trial_rows[0]], base.slots, env))
         # The object's own axis that points up in LIBERO's state (its mesh's up need not be its z).
         own_up = raw.sim.data.body_xmat[body].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
-        trial_state(env, v, base.rows[base.trial_rows[0]], base.slots, 0, base.layouts[0], ctx.case["trial_seeds"][0])
+        start_trial(env, ctx, v, 0)
         up = raw.sim.data.body_xmat[body].reshape(3, 3) @ own_up
-    finally:
-        env.close()
     assert abs(up[2]) < 0.5, up  # upright would be 1, upside down -1

@@ -45,16 +45,15 @@ def add_parser(sub) -> None:
     b.set_defaults(run=run_build)
 
 
-def scene_cases(args, everything: bool = False) -> list[dict]:
-    """The selected scene cases (`everything`: all of the catalog's)."""
-    catalog = load_catalog(args.catalog or paths.catalog_path())
-    return [
-        c for c in (catalog["cases"] if everything else select_cases(catalog, args.select)) if c.get("level") == "scene"
-    ]
+def scene_cases(args, catalog: dict | None = None) -> list[dict]:
+    """The selected scene cases of the catalog (read from `--catalog` unless given)."""
+    catalog = catalog or load_catalog(args.catalog or paths.catalog_path())
+    return [c for c in select_cases(catalog, args.select) if c.get("level") == "scene"]
 
 
 def run_build(args) -> int:
-    cases = scene_cases(args)
+    catalog = load_catalog(args.catalog or paths.catalog_path())
+    cases = scene_cases(args, catalog)
     print(f"building {describe(cases)} into {paths.out_dir() / 'scene'} with {args.jobs} job(s)", file=sys.stderr)
     started = time.perf_counter()
     results = build(cases, jobs=args.jobs, force=args.force, progress=True)
@@ -62,7 +61,8 @@ def run_build(args) -> int:
     built = sum(r.status == "built" for r in results)
     unchanged = sum(r.status == "unchanged" for r in results)
     if not args.no_record:
-        lock.record([r for r in results if r.status != "failed"], {c["id"] for c in scene_cases(args, everything=True)})
+        in_catalog = {c["id"] for c in catalog["cases"] if c.get("level") == "scene"}
+        lock.record([r for r in results if r.status != "failed"], in_catalog)
     for r in failed:
         print(f"FAILED {r.error}", file=sys.stderr)
     stages: dict[str, float] = {}
