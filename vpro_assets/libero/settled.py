@@ -38,6 +38,35 @@ SCHEMA_VERSION = 1
 SIMULATOR_PACKAGES = ("mujoco", "robosuite", "hf-libero")
 
 
+def keep_property_samplers(inner, copies: int) -> None:
+    """Keep `copies` copies of LIBERO's articulation samplers, as a new env has them.
+
+    LIBERO adds a sampler to `object_property_initializers` for every articulation state in the
+    BDDL's :init (an open drawer, a closed microwave, a stove turned off) at every model load, and
+    never clears the list. At a reset every sampler in it draws from numpy's seeded stream before
+    the fixtures (cabinets, racks, microwaves) are placed, so each hard reset of one env drew more
+    and placed the fixtures elsewhere (up to ~1 cm): the scene of a trial depended on how many
+    trials the env had run before it. A new env has one copy from its construction; its first reset
+    adds the second.
+    """
+    while not hasattr(inner, "object_property_initializers"):  # through wrappers (a fork's, ours)
+        if not hasattr(inner, "env"):
+            return  # a LIBERO without the list: nothing accumulates
+        inner = inner.env
+    samplers = inner.object_property_initializers
+    # Every load appends the same samplers in the same order: the distinct ones are one load's.
+    per_load = len({(getattr(s, "name", None), getattr(s, "state_type", None)) for s in samplers})
+    samplers[:] = samplers[:per_load] * copies
+
+
+def seeded_reset(env, seed: int):
+    """A trial's reset: `env.seed(seed)`, then `reset()` placing the fixtures as the first reset of
+    a new env does, whatever the env ran before (`env`: LIBERO's env or a wrapper); its observation."""
+    keep_property_samplers(env, 1)
+    env.seed(int(seed))
+    return env.reset()
+
+
 def movable_objects(inner) -> dict[str, int]:
     """Name -> body id of a LIBERO env's movable objects (`inner`: the robosuite env, `env.env`)."""
     return {name: inner.obj_body_id[name] for name in inner.objects_dict}

@@ -25,7 +25,15 @@ from pathlib import Path
 
 from vpro_assets.core.hashing import sha256_file
 from vpro_assets.libero.names import CAMERAS
-from vpro_assets.libero.settled import NOOP_ACTION, SCHEMA_VERSION, compare, empty_row, read_start, simulator_versions
+from vpro_assets.libero.settled import (
+    NOOP_ACTION,
+    SCHEMA_VERSION,
+    compare,
+    empty_row,
+    read_start,
+    seeded_reset,
+    simulator_versions,
+)
 from vpro_assets.packs.fork_registry import (
     PackRegistrationError,
     check_files,
@@ -70,8 +78,7 @@ def case_specs(pack: Path) -> dict[str, dict]:
 
 def settle_start(env, state, seed: int, wait_steps: int) -> dict:
     """Settle one start in a LIBERO env (an episode's first policy frame) and read it."""
-    env.seed(int(seed))
-    env.reset()
+    seeded_reset(env, seed)
     env.set_init_state(state)
     for _ in range(wait_steps):
         env.step(NOOP_ACTION)

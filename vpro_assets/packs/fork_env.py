@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from vpro_assets.core.errors import InvalidParameterError
+from vpro_assets.libero.settled import seeded_reset
 from vpro_assets.libero.task_record import TaskRecord
 from vpro_assets.perturb.observer import CaseObserver
 
@@ -114,8 +115,7 @@ def reset(env, case: Mapping | str | os.PathLike, trial: int, init_states=None):
         raise InvalidParameterError(f"case {case.get('id')}: trial {trial!r} out of range (0..{len(seeds) - 1})")
     if isinstance(env, ForkEnv):
         env.trial = trial
-    env.seed(int(seeds[trial]))
-    obs = env.reset()
+    obs = seeded_reset(env, int(seeds[trial]))
     if init_states is not None:
         if not 0 <= trial < len(init_states):
             raise InvalidParameterError(f"case {case.get('id')}: trial {trial} but {len(init_states)} initial states")

@@ -31,6 +31,7 @@ from vpro_assets.core.hashing import sha256_file
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.env import CAMERAS, make_env
 from vpro_assets.libero.init_states import read_init_states
+from vpro_assets.libero.settled import seeded_reset
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.perturb.entities import EntityIndex
 from vpro_assets.perturb.observer import CaseObserver
@@ -144,10 +145,10 @@ class CaseEnv:
         try:
             # LIBERO re-samples fixture placements (cabinets, stoves, racks) from numpy's global
             # stream at every hard reset; its own `seed()` is the only handle on that stream (openpi's
-            # LIBERO example calls it too). Seeding it with the trial's seed makes the scene, and so
-            # every frame, a function of (case, trial) whatever ran before in this process.
-            self.env.seed(int(self.case["trial_seeds"][self.trial]))
-            self.env.reset()
+            # LIBERO example calls it too). Seeding it with the trial's seed, and resetting as a new
+            # env's first reset does, makes the scene, and so every frame, a function of (case,
+            # trial) whatever ran before in this process.
+            seeded_reset(self.env, int(self.case["trial_seeds"][self.trial]))
             obs = self.env.set_init_state(self.init_state)
         except Exception as exc:
             self.broken = True

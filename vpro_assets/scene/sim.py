@@ -14,6 +14,7 @@ import numpy as np
 from vpro_assets.core.mjgeom import colliding, world_aabb
 from vpro_assets.libero import physics
 from vpro_assets.libero.env import NOOP_ACTION
+from vpro_assets.libero.settled import keep_property_samplers
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +44,7 @@ def place_fixtures(env, seed: int) -> None:
     frozen state always meets the fixture placement it was settled with, in every process.
     `_reset_internal` is the part of a reset that samples placements (checked equal to a full
     hard reset, without recompiling the model); the state loaded afterwards overrides the rest."""
+    keep_property_samplers(raw(env), 2)  # as at a new env's first reset (construction and reset)
     env.seed(int(seed))
     raw(env)._reset_internal()
 
