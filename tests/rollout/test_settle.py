@@ -10,6 +10,7 @@ import sqlite3
 import mujoco
 import numpy as np
 import pytest
+from conftest import BUILT_SCENE_CASE
 
 from vpro_assets.benchmark import fingerprints as fp
 from vpro_assets.benchmark.catalog import find_case, load_catalog
@@ -178,6 +179,16 @@ def test_committed_fingerprints_match_this_environment_on_a_sample(catalog, sett
         )
     rows = fp.compare(prints, settled)
     assert all(r["status"] == "ok" and r["displacement_cm"] == 0.0 for r in rows), rows
+
+
+def test_a_built_scene_case_starts_clean_and_as_fingerprinted(catalog, scene_out, monkeypatch):
+    """The scene case this session built from scratch (trials 0-2): clean starts, and the same
+    starts as the committed fingerprints (the sample of the scene cases in the default run)."""
+    monkeypatch.setenv("VPRO_OUT", str(scene_out))
+    records = [settle_trial(find_case(catalog, BUILT_SCENE_CASE), t) for t in range(3)]
+    assert [trial_problems(rec, relations=False) for rec in records] == [[], [], []]
+    rows = fp.compare(fp.load(), records)
+    assert [(r["case"], r["status"], r["displacement_cm"]) for r in rows] == [(BUILT_SCENE_CASE, "ok", 0.0)]
 
 
 def _rows(run_id: str, mujoco_version: str) -> list[dict]:
