@@ -10,10 +10,10 @@ scene case carries its own once taken, under its own id.
 
 `settle_cases` settles each fingerprinted trial in the fork's own env, as `vpro settle` does: LIBERO's
 `ControlEnv` of the case's BDDL without a renderer or camera observations, `env.seed(seed)`,
-`reset()` (`seeded_reset`: the fixtures as a new env's), `set_init_state(row)`, the wait steps of no-op actions. It compares the starts with
-`vpro_assets.libero.settled.compare`, the tolerances of `vpro drift` (one definition, shipped in
-the pack). Cases of the same scene share one env, and cases of the same start (the observation
-cases of one task) are settled once.
+`reset()` (`seeded_reset`: the fixtures as a new env's), `set_init_state(row)`, the wait steps of
+no-op actions. It compares the starts with `vpro_assets.libero.settled.compare`, the tolerances of
+`vpro drift` (one definition, shipped in the pack). Cases of the same scene share one env, and cases
+of the same start (the observation cases of one task) are settled once.
 """
 
 from __future__ import annotations

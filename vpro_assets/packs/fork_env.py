@@ -107,8 +107,9 @@ def wrap(env, case: Mapping | str | os.PathLike) -> ForkEnv:
 
 def reset(env, case: Mapping | str | os.PathLike, trial: int, init_states=None):
     """Start trial `trial` of `case` as the frozen scenes expect: `env.seed(case's trial seed)`,
-    `env.reset()` placing the fixtures as a new env's first reset (`seeded_reset`), then (with `init_states`, the suite's `get_task_init_states(i)`) row `trial`.
-    `env` is the fork's env or `wrap`'s; return the first observation (perturbed when wrapped)."""
+    `env.reset()` placing the fixtures as a new env's first reset (`seeded_reset`), then (with
+    `init_states`, the suite's `get_task_init_states(i)`) row `trial`. `env` is the fork's env or
+    `wrap`'s; return the first observation (perturbed when wrapped)."""
     case = load_case(case)
     seeds = case.get("trial_seeds") or []
     if not isinstance(trial, int) or not 0 <= trial < len(seeds):
