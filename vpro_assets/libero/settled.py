@@ -54,8 +54,9 @@ def keep_property_samplers(inner, copies: int) -> None:
             return  # a LIBERO without the list: nothing accumulates
         inner = inner.env
     samplers = inner.object_property_initializers
-    # Every load appends the same samplers in the same order: the distinct ones are one load's.
-    per_load = len({(getattr(s, "name", None), getattr(s, "state_type", None)) for s in samplers})
+    # Every load appends the same samplers in the same order: the distinct ones are one load's (a
+    # sampler without LIBERO's name and state counts as its own, so nothing unknown is dropped).
+    per_load = len({(getattr(s, "name", id(s)), getattr(s, "state_type", None)) for s in samplers})
     samplers[:] = samplers[:per_load] * copies
 
 
