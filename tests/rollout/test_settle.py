@@ -25,8 +25,9 @@ from vpro_assets.rollout import settle
 from vpro_assets.rollout import store as store_module
 from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.episode import WAIT_STEPS
-from vpro_assets.rollout.settle import settle_trial, trial_problems
+from vpro_assets.rollout.settle import _Scene, settle_trial, trial_problems
 from vpro_assets.rollout.store import ResultsStore
+from vpro_assets.scene import build
 
 # Cheap scenes (2-4 s to settle), one per kind: floor with a basket, tabletop, articulated cabinet.
 SAMPLE = ("libero_object-01/normal", "libero_spatial-01/normal", "libero_goal-00/normal")
@@ -310,3 +311,25 @@ def test_every_scene_start_under_the_pin_is_clean(tmp_path):
     assert len(records) == 7970  # 797 scene cases x 10 trials
     bad = {(r["case"], r["trial"]): trial_problems(r, relations=False) for r in records}
     assert {k: v for k, v in bad.items() if v} == {}
+
+
+def test_a_look_alike_stands_on_its_region_by_its_lowest_point(catalog, tmp_path, monkeypatch):
+    """The upside-down look-alike of libero_10-05's book is a visual-only fixture whose origin is
+    at its top, 16 cm above its region: LIBERO's On (origin at most 10 cm up) never holds; the
+    geometric check (lowest point on the surface, origin over the box) holds, and fails once the
+    look-alike stands 5 cm away."""
+    monkeypatch.setenv("VPRO_OUT", str(tmp_path))
+    case = find_case(catalog, "libero_10-05/visual_state_ambiguity/object_pose-v1")
+    assert build.build_case(case).status == "built"
+    cenv = env_for_case(case, 0, render=False, reuse=False)
+    try:
+        cenv.reset()
+        scene = _Scene(cenv.env)
+        state = next(list(s) for s in scene.inner.parsed_problem["initial_state"] if "vpro_ghost" in s[1])
+        on = scene.relation(state)
+        assert on["libero"] is False and on["geometric"] is True and on["holds"] is True
+        scene.model.body_pos[scene.inner.obj_body_id[state[1]]][0] += 0.05
+        mujoco.mj_forward(scene.model, scene.data)
+        assert scene.relation(state)["holds"] is False
+    finally:
+        cenv.close()

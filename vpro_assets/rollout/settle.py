@@ -11,8 +11,9 @@ and at the first policy frame (after the last wait step) its speed (m/s) and spi
 The BDDL's :init relations are evaluated twice: by LIBERO's own predicate, and geometrically where
 LIBERO's is unreliable (docs/simulator.md): `On(a, b)` between objects (LIBERO asks for b's origin
 below a's, a contact and origins within 3 cm in x-y, which a bowl stacked on a ramekin or a cookie
-box never meets), and `On(a, region)` (LIBERO's regions are the 1 cm sampling boxes of the
-placement, which the recorded initial states themselves miss by up to 1.5 cm).
+box never meets), `On(a, region)` (LIBERO's regions are the 1 cm sampling boxes of the
+placement, which the recorded initial states themselves miss by up to 1.5 cm), and a visual-only
+look-alike `On` a region by its lowest point (an upside-down look-alike's origin is at its top).
 """
 
 from __future__ import annotations
@@ -122,6 +123,8 @@ class _Scene:
                 geometric = self._on_object(a, b)
             elif b in self.inner.object_sites_dict:
                 geometric = self._on_region(a, b)
+        elif pred == "on" and len(args) == 2 and args[1] in self.inner.object_sites_dict and self._visual_only(args[0]):
+            geometric = self._look_alike_on_region(*args)
         return {
             "relation": " ".join(state),
             "libero": libero,
@@ -149,6 +152,29 @@ class _Scene:
         return bool(
             np.all(np.abs(delta[:2]) <= size[:2] + REGION_XY_TOL_M)
             and REGION_Z_BAND_M[0] <= delta[2] - size[2] <= REGION_Z_BAND_M[1]
+        )
+
+    def _visual_only(self, name: str) -> bool:
+        """A fixture without colliding geoms: the toolkit's visual-only look-alikes."""
+        if name not in self.inner.fixtures_dict:
+            return False
+        return not len(_colliding_geoms(self.model, _subtree(self.model, self.inner.obj_body_id[name])))
+
+    def _look_alike_on_region(self, a: str, region: str) -> bool:
+        """A visual-only look-alike stands on a region when its origin is over the region's box and
+        its lowest point is on the region's surface. LIBERO's own predicate asks for the origin at
+        most 10 cm above the surface, which an upside-down look-alike of a tall object (its origin
+        at its top) never meets."""
+        site = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, region)
+        size = np.asarray(self.inner.object_sites_dict[region].size, dtype=np.float64)
+        body = self.inner.obj_body_id[a]
+        geoms = np.flatnonzero(np.isin(self.model.geom_bodyid, list(_subtree(self.model, body))))
+        lowest = _world_box(self.model, self.data, geoms)[0][2]
+        rot = self.data.site_xmat[site].reshape(3, 3)
+        delta = rot @ (self.data.xpos[body] - self.data.site_xpos[site])
+        return bool(
+            np.all(np.abs(delta[:2]) <= size[:2] + REGION_XY_TOL_M)
+            and REGION_Z_BAND_M[0] <= lowest - self.data.site_xpos[site][2] - size[2] <= REGION_Z_BAND_M[1]
         )
 
 
