@@ -15,9 +15,9 @@ from vpro_assets.libero.env import CAMERAS, libero_init_states, make_env
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.perturb import PerturbedEnv
 from vpro_assets.perturb.base import MaskSource
-from vpro_assets.perturb.capture import CaptureRenderer, capture
+from vpro_assets.perturb.capture import CaptureRenderer, capture, decode_ids
 from vpro_assets.perturb.imageops import meeting_region, scaled_px
-from vpro_assets.perturb.rendering import render_context
+from vpro_assets.perturb.rendering import draw, render_context, render_geom_ids, render_rgb
 from vpro_assets.rollout.policies.scripted import PickPlaceController
 
 TASKS = ("libero_spatial-00", "libero_goal-03", "libero_object-02")
@@ -152,3 +152,47 @@ def test_masking_setting_same_schedule_seeds_and_physics_with_either_mask_path()
     assert ang1 == ang2
     np.testing.assert_array_equal(s1, s2)
     assert ref1 == 0 < n1 and ref2 == n2 > 0
+
+
+def test_masks_show_what_the_colour_frame_shows_under_hidden_sites():
+    """robosuite hides its visualisation sites (the grip site's vertical cylinder) by negating
+    their alpha: nothing in the colour frame, an opaque strip in MuJoCo's segmentation mode. With
+    the target right under the gripper, the strip crosses it in the third-person view; the masks of
+    both paths must still cover every target pixel the camera shows."""
+    key, cam = TASKS[0], "agentview"
+    task = get_task(key)
+    setting = tx.setting("vpro/target_object_masking/ratio100-always-v1")
+    case = {"id": f"{key}/x", "task": key, "setting": setting.id, "params": setting.param_dict}
+    env = PerturbedEnv(make_env(task, RES, horizon=10**6), case, task)
+    try:
+        env.reset(trial=0, init_state=libero_init_states(task)[0])
+        sim, pipe = env.sim, env.pipeline
+        model, data = sim.model._model, sim.data._data
+        target = pipe.entities.entity("target")
+        # the target's free joint: its x-y under the grip site, its height kept
+        qadr = model.jnt_qposadr[model.body_jntadr[target.bodies[0]]]
+        data.qpos[qadr : qadr + 2] = data.site_xpos[model.site("gripper0_grip_site").id][:2]
+        mujoco.mj_forward(model, data)
+        ctx = render_context(sim)
+        colour = render_rgb(sim, cam, RES, RES)
+        shown = np.isin(render_geom_ids(sim, cam, RES, RES), target.geoms)
+        sites = ctx.vopt.sitegroup.copy()
+        try:
+            ctx.vopt.sitegroup[:] = 0
+            assert np.array_equal(render_rgb(sim, cam, RES, RES), colour)  # the sites draw nothing in colour
+            without_sites = np.isin(render_geom_ids(sim, cam, RES, RES), target.geoms)
+        finally:
+            ctx.vopt.sitegroup[:] = sites
+        draw(ctx, RES, RES, model.camera(cam).id, segmentation=True)  # MuJoCo's segmentation as is
+        rgb = np.empty((RES, RES, 3), dtype=np.uint8)
+        mujoco.mjr_readPixels(rgb=rgb, depth=None, viewport=mujoco.MjrRect(0, 0, RES, RES), con=ctx.con)
+        raw = np.isin(decode_ids(rgb, ctx.scn), target.geoms)
+        assert without_sites.sum() - raw.sum() >= 5  # the strip does cross the target
+        assert np.array_equal(shown, without_sites)
+        sim.render(camera_name=cam, width=RES, height=RES)  # the env's frame, captured by the hook
+        masks = MaskSource(sim, pipe.entities, {cam: (RES, RES)}, pipe.hook.take(), pipe.capture_renderer,
+                           frozenset({"target"}))  # fmt: skip
+        assert np.array_equal(masks.mask(cam, "target"), without_sites)
+        assert masks.reference_renders == 0
+    finally:
+        env.close()

@@ -7,7 +7,10 @@ the env's render). Wherever the real target shows at least `MIN_VISIBLE_PX` pixe
 - the displaced target shows at least the same share of its silhouette as the real one (less
   `SHARE_TOLERANCE`): share = pixels seen in the frame / pixels of the target drawn alone in a
   frame `WIDE` times wider at the same pixel scale, so that a part cut off by the frame counts as
-  unseen just like a part hidden behind the gripper or a fixture;
+  unseen just like a part hidden behind the gripper or a fixture; where no place the
+  contradiction may choose (`displacement.candidates`) shows that much, rendered (a close-up that
+  fills the wrist view cannot move a quarter of the image and stay whole), at least the share of
+  the best of them;
 - the centres of the two silhouettes (drawn alone, in the wide frame) are at least
   `MIN_DISTANCE_PX` apart.
 
@@ -27,6 +30,7 @@ import pytest
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.libero.env import CAMERAS, libero_init_states, make_env
 from vpro_assets.libero.tasks import get_task, load_tasks
+from vpro_assets.perturb import displacement as dp
 from vpro_assets.perturb import scene_edits as se
 from vpro_assets.perturb.base import Episode
 from vpro_assets.perturb.contradiction import Contradiction
@@ -52,6 +56,7 @@ class Sample:
     shown_px: int
     shown_share: float
     distance_px: float
+    best_share: float  # the most any candidate place shows, rendered (only where shown_share falls short)
 
 
 def position_setting(camera: str) -> tx.Setting:
@@ -86,12 +91,39 @@ def silhouette(sim, camera: str, geoms: np.ndarray, offset: np.ndarray) -> np.nd
         model.cam_fovy[cid] = fovy
 
 
+def rendered_share(sim, camera: str, geoms: np.ndarray, offset: np.ndarray) -> tuple[int, np.ndarray]:
+    """(pixels of the target drawn shifted by `offset` seen in the frame, its silhouette alone)."""
+
+    def shifted(scn):
+        se.transform(scn, se.find(scn, geoms), offset=offset)
+
+    seen = int(np.isin(render_geom_ids(sim, camera, RES, RES, edit=shifted), geoms).sum())
+    return seen, silhouette(sim, camera, geoms, offset)
+
+
+def best_candidate_share(sim, pert: Contradiction) -> float:
+    """The largest rendered share over every place the contradiction may choose: where none is
+    as visible as the real target (a close-up filling the wrist view), the bar it can reach."""
+    model, data = pert.index.model, sim.data._data
+    camera = dp.Camera.of(model, data, model.camera(pert.camera).id)
+    points, _ = pert._samples.world(data)
+    geoms = np.asarray(pert.target.geoms)
+    best = 0.0
+    for _, _, offset in dp.candidates(camera, points, pert.shifts(camera, points), pert.angle):
+        seen, alone_px = rendered_share(sim, pert.camera, geoms, offset)
+        best = max(best, seen / max(int(alone_px.sum()), 1))
+    return best
+
+
 def measure(sim, pert: Contradiction, task: str, step: int) -> Sample:
     camera, geoms = pert.camera, np.asarray(pert.target.geoms)
     real_px = int(np.isin(render_geom_ids(sim, camera, RES, RES), geoms).sum())
     shown_px = int(np.isin(render_geom_ids(sim, camera, RES, RES, edit=pert.edit), geoms).sum())
     assert pert.last_choice is not None
     real, shown = silhouette(sim, camera, geoms, np.zeros(3)), silhouette(sim, camera, geoms, pert.last_choice.offset)
+    real_share, shown_share = real_px / max(int(real.sum()), 1), shown_px / max(int(shown.sum()), 1)
+    short = real_px >= MIN_VISIBLE_PX and shown_share < real_share - SHARE_TOLERANCE
+    best = best_candidate_share(sim, pert) if short else shown_share
     distance = (
         float(np.linalg.norm(np.argwhere(real).mean(axis=0) - np.argwhere(shown).mean(axis=0)))
         if real.any() and shown.any()
@@ -102,10 +134,11 @@ def measure(sim, pert: Contradiction, task: str, step: int) -> Sample:
         camera,
         step,
         real_px,
-        real_px / max(int(real.sum()), 1),
+        real_share,
         shown_px,
-        shown_px / max(int(shown.sum()), 1),
+        shown_share,
         distance,
+        best,
     )
 
 
@@ -151,15 +184,8 @@ def check_distance(key: str) -> None:
 
 
 def check_share(key: str) -> None:
-    hidden = [s for s in judged(key) if s.shown_share < s.real_share - SHARE_TOLERANCE]
+    hidden = [s for s in judged(key) if s.shown_share < min(s.real_share, s.best_share) - SHARE_TOLERANCE]
     assert not hidden, f"displaced target less visible than the real one: {hidden[:3]}"
-
-
-# Known gap (measured 17:10 UTC, 23 Nov): the point-sample estimate of the silhouette share does
-# not yet match the rendered share closely enough: libero_10-05 third-person 21 of 40 judged steps
-# below the real share less 0.05 (worst -0.17), wrist 1 of 40 (-0.42); libero_spatial-00 1 of 40 in
-# each camera (-0.23, -0.05). The distance holds everywhere (at least 32 px).
-SHARE_GAP = pytest.mark.xfail(reason="silhouette share estimate vs rendered share: see SHARE_GAP note", strict=False)
 
 
 TARGET_TASKS = [t.key for t in load_tasks() if t.target is not None]
@@ -170,7 +196,6 @@ def test_displaced_target_is_elsewhere(key):
     check_distance(key)
 
 
-@SHARE_GAP
 @pytest.mark.parametrize("key", DEFAULT_TASKS)
 def test_displaced_target_is_as_visible_as_the_real_one(key):
     check_share(key)
@@ -182,7 +207,6 @@ def test_displaced_target_is_elsewhere_on_every_task(key):
     check_distance(key)
 
 
-@SHARE_GAP
 @pytest.mark.slow
 @pytest.mark.parametrize("key", [k for k in TARGET_TASKS if k not in DEFAULT_TASKS])
 def test_displaced_target_is_as_visible_on_every_task(key):

@@ -87,8 +87,8 @@ def capture(
     groups: dict[str, np.ndarray] | None = None,
 ) -> Capture:
     """Copy, from the scene the env just drew (`ctx.scn`), the entries of the entities and of the
-    geoms that can cover them, plus every non-geom entry (few; they may cover anything), and the
-    pixel window the entities can occupy."""
+    geoms that can cover them, plus every non-geom entry the colour frame shows (few; they may
+    cover anything), and the pixel window the entities can occupy."""
     scn = ctx.scn
     cams = tuple(
         {f: (getattr(c, f).copy() if isinstance(getattr(c, f), np.ndarray) else getattr(c, f)) for f in _CAMERA_FIELDS}
@@ -110,7 +110,7 @@ def capture(
     if window is not None:
         for i in range(scn.ngeom):
             g = scn.geoms[i]
-            if g.segid >= 0 and (g.objtype != _GEOM or keep[g.objid]):
+            if g.segid >= 0 and not scene_edits.invisible(g) and (g.objtype != _GEOM or keep[g.objid]):
                 entries.append(scene_edits.snapshot(g))
     return Capture(camera_id, width, height, entries, cams, generation, window, label_windows)
 

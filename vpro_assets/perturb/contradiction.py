@@ -172,12 +172,15 @@ class Contradiction(Perturbation):
         model, data = self.index.model, self.sim.data._data
         camera = dp.Camera.of(model, data, model.camera(self.camera).id)
         points, normals = self._samples.world(data)
-        size = dp.projected_size(camera, points)
-        shifts = (max(self.min_shift, min(size, dp.MAX_SHIFT)), self.min_shift)
         visibility = dp.Visibility(model, data, camera, self._geomgroup, self.target.geoms)
-        choice = dp.choose_offset(visibility, points, normals, shifts, self.angle, self._previous)
+        choice = dp.choose_offset(visibility, points, normals, self.shifts(camera, points), self.angle, self._previous)
         self._previous, self.last_choice = choice.direction, choice
         return choice.offset
+
+    def shifts(self, camera: dp.Camera, points: np.ndarray) -> tuple[float, float]:
+        """The shifts tried, of the image height: the target's own projected size (at most
+        `MAX_SHIFT`), then `min_shift`."""
+        return max(self.min_shift, min(dp.projected_size(camera, points), dp.MAX_SHIFT)), self.min_shift
 
     def _other_state(self, scn: mujoco.MjvScene) -> None:
         model, data, scratch = self.index.model, self.sim.data._data, self._scratch

@@ -27,6 +27,7 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
+from vpro_assets.perturb import scene_edits
 from vpro_assets.perturb.capture import Capture, capture, decode_ids
 from vpro_assets.perturb.occluders import GeomHulls, drawable_geoms
 
@@ -84,9 +85,16 @@ def render_rgb(sim, camera: str, width: int, height: int, edit: SceneEdit | None
 
 
 def render_geom_ids(sim, camera: str, width: int, height: int, edit: SceneEdit | None = None) -> np.ndarray:
-    """Raw (bottom-up) int32 image of the geom id seen at each pixel, -1 where no geom is."""
+    """Raw (bottom-up) int32 image of the geom id seen at each pixel, -1 where no geom is; entries
+    the colour frame does not show (hidden sites) are left out, so ids are what the camera shows."""
     ctx = render_context(sim)
-    draw(ctx, width, height, sim.model.camera_name2id(camera), edit, segmentation=True)
+
+    def shown(scn: mujoco.MjvScene) -> None:
+        if edit is not None:
+            edit(scn)
+        scene_edits.remove_invisible(scn)
+
+    draw(ctx, width, height, sim.model.camera_name2id(camera), shown, segmentation=True)
     rgb = np.empty((height, width, 3), dtype=np.uint8)
     mujoco.mjr_readPixels(rgb=rgb, depth=None, viewport=mujoco.MjrRect(0, 0, width, height), con=ctx.con)
     return decode_ids(rgb, ctx.scn)

@@ -68,6 +68,19 @@ def remove(scn: mujoco.MjvScene, indices: Iterable[int]) -> None:
     scn.ngeom = len(keep)
 
 
+def invisible(geom) -> bool:
+    """An entry the colour pass does not show: robosuite hides its visualisation sites (the grip
+    site's 10 m cylinder, a stove's burner disc) by negating their alpha, which draws nothing in
+    colour but an opaque patch in MuJoCo's segmentation mode."""
+    return bool(geom.rgba[3] <= 0)
+
+
+def remove_invisible(scn: mujoco.MjvScene) -> None:
+    """Delete the entries the colour pass does not show, so a segmentation render shows what the
+    camera's frame shows."""
+    remove(scn, [i for i in range(scn.ngeom) if invisible(scn.geoms[i])])
+
+
 def visual_center(scn: mujoco.MjvScene, indices: list[int], model: mujoco.MjModel) -> np.ndarray:
     """World centre of the bounding boxes of some entries (geom AABBs from the model)."""
     centers = []
