@@ -122,7 +122,7 @@ class _Scene:
             if b in self.inner.obj_body_id and b not in self.inner.object_sites_dict:
                 geometric = self._on_object(a, b)
             elif b in self.inner.object_sites_dict:
-                geometric = self._on_region(a, b)
+                geometric = self._on_region(self.objects[a], b)
         elif pred == "on" and len(args) == 2 and args[1] in self.inner.object_sites_dict and self._visual_only(args[0]):
             geometric = self._look_alike_on_region(*args)
         return {
@@ -145,13 +145,16 @@ class _Scene:
             and lo[1] <= pos[1] <= hi[1]
         )
 
-    def _on_region(self, a: str, region: str) -> bool:
+    def _on_region(self, body: int, region: str, z: float | None = None) -> bool:
+        """body's origin is over the region's box and `z` (default: the origin's height) is on its
+        surface."""
         site = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, region)
         size = np.asarray(self.inner.object_sites_dict[region].size, dtype=np.float64)
-        delta = self.data.site_xmat[site].reshape(3, 3) @ (self.data.xpos[self.objects[a]] - self.data.site_xpos[site])
+        delta = self.data.site_xmat[site].reshape(3, 3) @ (self.data.xpos[body] - self.data.site_xpos[site])
+        height = delta[2] if z is None else z - self.data.site_xpos[site][2]
         return bool(
             np.all(np.abs(delta[:2]) <= size[:2] + REGION_XY_TOL_M)
-            and REGION_Z_BAND_M[0] <= delta[2] - size[2] <= REGION_Z_BAND_M[1]
+            and REGION_Z_BAND_M[0] <= height - size[2] <= REGION_Z_BAND_M[1]
         )
 
     def _visual_only(self, name: str) -> bool:
@@ -161,21 +164,12 @@ class _Scene:
         return not len(_colliding_geoms(self.model, _subtree(self.model, self.inner.obj_body_id[name])))
 
     def _look_alike_on_region(self, a: str, region: str) -> bool:
-        """A visual-only look-alike stands on a region when its origin is over the region's box and
-        its lowest point is on the region's surface. LIBERO's own predicate asks for the origin at
-        most 10 cm above the surface, which an upside-down look-alike of a tall object (its origin
-        at its top) never meets."""
-        site = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, region)
-        size = np.asarray(self.inner.object_sites_dict[region].size, dtype=np.float64)
+        """A visual-only look-alike stands on a region by its lowest point. LIBERO's own predicate
+        asks for the origin at most 10 cm above the surface, which an upside-down look-alike of a
+        tall object (its origin at its top) never meets."""
         body = self.inner.obj_body_id[a]
         geoms = np.flatnonzero(np.isin(self.model.geom_bodyid, list(_subtree(self.model, body))))
-        lowest = _world_box(self.model, self.data, geoms)[0][2]
-        rot = self.data.site_xmat[site].reshape(3, 3)
-        delta = rot @ (self.data.xpos[body] - self.data.site_xpos[site])
-        return bool(
-            np.all(np.abs(delta[:2]) <= size[:2] + REGION_XY_TOL_M)
-            and REGION_Z_BAND_M[0] <= lowest - self.data.site_xpos[site][2] - size[2] <= REGION_Z_BAND_M[1]
-        )
+        return self._on_region(body, region, z=_world_box(self.model, self.data, geoms)[0][2])
 
 
 def settle_trial(case: Mapping, trial: int, wait_steps: int = WAIT_STEPS) -> dict:
