@@ -15,8 +15,18 @@ from vpro_assets.cli import main
 from vpro_assets.commands.catalog_cmd import certificate_problems
 from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
+from vpro_assets.libero.bridge import simulator_versions
 from vpro_assets.report import solvability
-from vpro_assets.report.certify import RUN_ID, Outputs, check_built, run_certify, stratified_sample, write_outputs
+from vpro_assets.report.certify import (
+    RUN_ID,
+    Outputs,
+    carry_certificate,
+    check_built,
+    run_certify,
+    stratified_sample,
+    write_outputs,
+)
+from vpro_assets.rollout.episode import EpisodeSettings
 from vpro_assets.rollout.policies.oracle.policy import OraclePolicy
 from vpro_assets.rollout.store import ResultsStore
 
@@ -158,3 +168,51 @@ def test_full_certificate(tmp_path):
         assert sum(e["solved"] for e in es) >= 0.9 * sum(e["trials"] for e in es), setting
         assert all(e["solved"] >= 7 for e in es), setting
     shutil.rmtree(tmp_path / "docs", ignore_errors=True)
+
+
+def _committed(case_id: str, trials: list[int], solved: list[int]) -> dict:
+    """A certificate as `vpro certify` commits it, holding one case's trials."""
+    return _certificate(None, {}) | {
+        "settings": EpisodeSettings(render=False).to_json(),
+        "versions": simulator_versions() | {"numpy": "any"},
+        "cases": {
+            case_id: _entry(case_id)
+            | {"trials": len(trials), "solved": len(solved), "errors": 0, "solved_trials": solved,
+               "trial_ids": trials, "steps": [100 + t for t in trials], "final_state": [f"fp{t}" for t in trials]}
+        },
+    }  # fmt: skip
+
+
+def test_resume_on_a_fresh_machine_continues_from_the_committed_certificate(tmp_path):
+    """A database without a certification run, resumed, starts from the certificate: its trials are
+    not run again and are written back unchanged; a certificate of another simulator carries nothing."""
+    case = find_case(CATALOG, NORMAL)
+    planned: list[tuple[int, int]] = []
+    committed = _committed(NORMAL, [0, 1], [1])
+    summary = run_certify(
+        [case], tmp_path / "c.sqlite", 2, True, "inline", 1, None, [NORMAL],
+        on_plan=lambda todo, skipped: planned.append((todo, skipped)), carry_from=(CATALOG, committed),
+    )  # fmt: skip
+    assert planned == [(0, 2)] and summary.recorded == 0
+    entry = write_outputs(CATALOG, paths.catalog_path(), tmp_path / "c.sqlite", _outputs(tmp_path), replays=False)[
+        "cases"
+    ][NORMAL]
+    assert {k: entry[k] for k in ("trials", "solved_trials", "steps", "final_state")} == {
+        "trials": 2, "solved_trials": [1], "steps": [100, 101], "final_state": ["fp0", "fp1"]
+    }  # fmt: skip
+    other = committed | {"versions": {"mujoco": "2.3.7", "robosuite": "1.4.1"}}
+    with ResultsStore(tmp_path / "d.sqlite") as store:
+        store.create_run(RUN_ID, "oracle", "oracle", {}, [], 2, {}, None)
+        assert carry_certificate(store, CATALOG, other, EpisodeSettings(render=False)) == []
+
+
+def test_redo_runs_a_carried_case_again(tmp_path):
+    case = find_case(CATALOG, NORMAL)
+    run_certify(
+        [case], tmp_path / "c.sqlite", 1, True, "inline", 1, None, [NORMAL],
+        carry_from=(CATALOG, _committed(NORMAL, [0], [])), redo=[NORMAL],
+    )  # fmt: skip
+    with ResultsStore(tmp_path / "c.sqlite") as store:
+        (row,) = store.episodes(RUN_ID)
+    assert row["worker"] != "carried from the certificate" and row["final_state"] != "fp0"
+    assert row["status"] == "ok" and row["success"]  # the oracle solves this task (10 of 10 in the certificate)

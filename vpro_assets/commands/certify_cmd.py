@@ -8,8 +8,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from vpro_assets.benchmark import certificate as cert
 from vpro_assets.benchmark.catalog import load_catalog
-from vpro_assets.benchmark.certificate import certificate_path
 from vpro_assets.benchmark.selection import describe, select_cases
 from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
@@ -42,7 +42,19 @@ def add_parser(sub) -> None:
     p.add_argument("-j", "--workers", type=int, default=1, help="parallel episodes (default 1)")
     p.add_argument("--backend", choices=("local", "inline", "ray"), default="local", help="episode backend")
     p.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
-    p.add_argument("--resume", action="store_true", help="continue the certification run of the results database")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the certification run of the results database; into a database without one, start "
+        "from the committed certificate (its cases whose records are unchanged keep their trials)",
+    )
+    p.add_argument(
+        "--redo",
+        action="append",
+        default=[],
+        metavar="FILTER",
+        help="run these cases again (as --select; e.g. after improving the oracle): their trials are dropped",
+    )
     p.add_argument(
         "--results",
         type=Path,
@@ -77,12 +89,15 @@ def run_certify_cmd(args) -> int:
     catalog_file = paths.catalog_path()
     catalog = load_catalog(catalog_file)
     doc = args.doc or paths.REPO_ROOT / "docs" / "solvability.md"
-    outputs = Outputs(args.certificate or certificate_path(), doc, doc.parent / "solvability")
+    outputs = Outputs(args.certificate or cert.certificate_path(), doc, doc.parent / "solvability")
     if not args.write_only:
         if args.select:
             cases = certifiable_cases(catalog, select_cases(catalog, args.select))
         else:
             cases = catalog["normal"] + [c for c in catalog["cases"] if c.get("level") == "scene"]
+        redo = certifiable_cases(catalog, select_cases(catalog, args.redo)) if args.redo else []
+        cases += [c for c in redo if c not in cases]
+        carry = (catalog, cert.load(outputs.certificate)) if args.resume and outputs.certificate.is_file() else None
         if not cases:
             raise VProError("the selection holds no case to certify")
         print(f"vpro certify: {describe(cases)} x {args.trials} trial(s) -> {args.results}", file=sys.stderr)
@@ -109,6 +124,8 @@ def run_certify_cmd(args) -> int:
             args.select,
             on_row=row,
             on_plan=plan,
+            carry_from=carry,
+            redo=[c["id"] for c in redo],
         )
         bar.close()
         print(

@@ -3,6 +3,11 @@ eval`'s runner (run id `certify` of a results database, so `--resume` and the ba
 runner's), then every failed trial replayed to read why, and the certificate and its document
 written from all the rows of that run.
 
+The committed certificate is what outlives a machine: `--resume` into a database that holds no
+certification run starts it from the certificate's entries whose case record is unchanged and that
+ran under this simulator and these settings (`carry_certificate`), so a fresh clone continues where
+the last one committed. `--redo` runs chosen cases afresh (an improved oracle) and keeps the rest.
+
 The catalog record each case ran on is kept beside the database (`<results>.cases.json`, sha256 of
 the record): a case whose record changed is refused on `--resume` and left out of the certificate
 (the catalog may change under a long run; the cases that did not change keep their trials).
@@ -23,16 +28,21 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from vpro_assets.benchmark import certificate as cert
+from vpro_assets.benchmark.catalog import library_versions
 from vpro_assets.benchmark.lock import lock_path
+from vpro_assets.core import paths
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import canonical_json, sha256_file
 from vpro_assets.core.images import write_png
+from vpro_assets.libero.bridge import simulator_versions
 from vpro_assets.report import solvability
 from vpro_assets.rollout.case_env import CaseUnavailableError, check_available
 from vpro_assets.rollout.episode import EpisodeSettings
 from vpro_assets.rollout.failure_replay import replay
+from vpro_assets.rollout.jobs import base_row, make_job
 from vpro_assets.rollout.runner import RunSummary, run_eval
+from vpro_assets.rollout.spec import policy_label
 from vpro_assets.rollout.store import ResultsStore
 
 log = logging.getLogger(__name__)
@@ -100,6 +110,31 @@ def check_built(cases: Sequence[dict]) -> None:
         )
 
 
+def carry_certificate(store: ResultsStore, catalog: dict, certificate: dict, settings: EpisodeSettings) -> list[dict]:
+    """Record the trials of the certificate's current entries (case record unchanged, same episode
+    settings and simulator) as rows of the certification run; the cases carried."""
+    sim = {k: v for k, v in certificate.get("versions", {}).items() if k in simulator_versions()}
+    if certificate.get("settings") != settings.to_json() or sim != simulator_versions():
+        log.warning("the certificate ran under other settings or another simulator (%s): nothing carried", sim)
+        return []
+    records = {c["id"]: c for c in catalog.get("normal", []) + catalog["cases"] if cert.certifiable(c)}
+    carried = []
+    for cid, entry in certificate["cases"].items():
+        case = records.get(cid)
+        if case is None or entry.get("case_sha256") != cert.case_sha256(case):
+            continue
+        solved = set(entry["solved_trials"])
+        for trial, steps, final in zip(entry["trial_ids"], entry["steps"], entry["final_state"], strict=True):
+            row = base_row(make_job(RUN_ID, case, trial, POLICY, {}, settings, 0, 0.0))
+            store.record(
+                row
+                | {"status": "ok", "success": trial in solved, "steps": steps, "final_state": final}
+                | {"worker": "carried from the certificate", "simulator": sim}
+            )
+        carried.append(case)
+    return carried
+
+
 def run_certify(
     cases: Sequence[dict],
     results: Path,
@@ -111,20 +146,38 @@ def run_certify(
     selection: Sequence[str],
     on_row: Callable[[dict], None] | None = None,
     on_plan: Callable[[int, int], None] | None = None,
+    carry_from: tuple[dict, dict] | None = None,
+    redo: Sequence[str] = (),
 ) -> RunSummary:
+    """Certify `cases` into the run of `results`. `carry_from` (catalog, certificate): on `resume`
+    into a database without a run, start it from the certificate; `redo`: case ids whose trials in
+    the database (or the certificate) are dropped and run again."""
     check_built(cases)
-    record_case_hashes(results, cases)
+    settings = EpisodeSettings(render=False)
+    carried: list[dict] = []
     with ResultsStore(results) as store:
         exists = store.run(RUN_ID) is not None
-    if exists and not resume:
-        raise VProError(
-            f"{results}: a certification run exists; continue it with --resume (or certify into a new file)"
-        )
+        if exists and not resume:
+            raise VProError(
+                f"{results}: a certification run exists; continue it with --resume (or certify into a new file)"
+            )
+        if resume and not exists and carry_from is not None:
+            store.create_run(
+                RUN_ID, POLICY, policy_label(POLICY), settings.to_json(), list(selection), trials,
+                library_versions(), cert.file_sha256(paths.catalog_path()),
+            )  # fmt: skip
+            catalog, certificate = carry_from
+            carried = [c for c in carry_certificate(store, catalog, certificate, settings) if c["id"] not in redo]
+            exists = True
+            log.info("carried %d case(s) from the certificate", len(carried))
+        if exists and redo:
+            store.forget(RUN_ID, redo)
+    record_case_hashes(results, cases, carried)
     return run_eval(
         cases,
         results=results,
         policy_spec=POLICY,
-        settings=EpisodeSettings(render=False),
+        settings=settings,
         trials=trials,
         run_id=RUN_ID,
         resume=exists,
@@ -147,10 +200,11 @@ def _case_hashes(results: Path) -> dict[str, str]:
     return json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
 
 
-def record_case_hashes(results: Path, cases: Sequence[dict]) -> None:
-    """Note the catalog record each case runs on; VProError when a case with trials in the database
-    has changed since (its rows would mix two versions of the case)."""
-    hashes = _case_hashes(results)
+def record_case_hashes(results: Path, cases: Sequence[dict], carried: Sequence[dict] = ()) -> None:
+    """Note the catalog record each case runs on (`carried`: the records the certificate's trials ran
+    on); VProError when a case with trials in the database has changed since (its rows would mix two
+    versions of the case)."""
+    hashes = _case_hashes(results) | {c["id"]: cert.case_sha256(c) for c in carried}
     with ResultsStore(results) as store:
         done = {cid for cid, _ in store.done_keys(RUN_ID)} if store.run(RUN_ID) else set()
     for case in cases:

@@ -227,6 +227,10 @@ class ResultsStore:
         )
         return cur.rowcount > 0
 
+    def forget(self, run_id: str, case_ids: Iterable[str]) -> None:
+        """Drop the rows of these cases (to run them again)."""
+        self.db.executemany("DELETE FROM episodes WHERE run_id = ? AND case_id = ?", [(run_id, c) for c in case_ids])
+
     def episodes(self, run_id: str | None = None) -> list[dict]:
         query = "SELECT * FROM episodes"
         args: tuple[str, ...] = ()
