@@ -11,6 +11,9 @@ import pytest
 # Before anything imports LIBERO: config in a per-run folder, quiet robosuite.
 os.environ.setdefault("VPRO_LIBERO_CONFIG_DIR", tempfile.mkdtemp(prefix="vpro-libero-config-"))
 
+# Before any test module imports numpy: the toolkit's import pins numpy's kernels (the lock's bytes).
+import vpro_assets  # noqa: E402, F401
+
 
 @pytest.fixture(scope="session")
 def tasks():

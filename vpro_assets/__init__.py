@@ -6,13 +6,18 @@ Importing the package is cheap: LIBERO, robosuite and renderers load only when u
 In the toolkit's own environment, importing the package also points LIBERO at the config that
 `make setup` wrote (`.libero/config.yaml` in the repository) when neither `LIBERO_CONFIG_PATH` nor
 the user's own `~/.libero/config.yaml` exists, so a user's own script that imports LIBERO afterwards is not stopped by LIBERO's stdin prompt.
-Nothing is written at import.
+Importing it first also pins numpy's floating-point kernels (`vpro_assets.core.numerics`), so built
+scenes are the same bytes on every x86-64 CPU with AVX2. Nothing is written at import.
 """
 
-import os as _os
-from pathlib import Path as _Path
+from vpro_assets.core import numerics as _numerics
 
-from vpro_assets.core import paths as _paths
+_numerics.pin()  # before anything here imports numpy
+
+import os as _os  # noqa: E402
+from pathlib import Path as _Path  # noqa: E402
+
+from vpro_assets.core import paths as _paths  # noqa: E402
 
 __version__ = "0.1.0"
 

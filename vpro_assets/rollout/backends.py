@@ -23,6 +23,7 @@ import signal
 from collections.abc import Iterable, Iterator
 from typing import Any
 
+from vpro_assets.core import numerics
 from vpro_assets.core.errors import VProError
 from vpro_assets.rollout.case_env import release_cached_envs
 from vpro_assets.rollout.jobs import base_row, execute_job
@@ -34,7 +35,9 @@ BACKENDS = ("local", "inline", "ray")
 
 
 def worker_env(workers: int) -> dict[str, str]:
-    return {"LP_NUM_THREADS": "1"} if workers > 1 else {}
+    """Environment of a worker process: the pinned numpy kernels (a Ray worker loads numpy before our
+    code runs) and, beside other workers, one thread each."""
+    return (numerics.PINNED if numerics.X86_64 else {}) | ({"LP_NUM_THREADS": "1"} if workers > 1 else {})
 
 
 def run_inline(jobs: Iterable[dict]) -> Iterator[dict]:

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from vpro_assets.core import paths
+from vpro_assets.core import numerics, paths
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import canonical_json, sha256_bytes
@@ -117,6 +117,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
         meta = case_key.current_meta(cid, key)
         if meta is not None:
             return CaseResult(cid, "unchanged", time.perf_counter() - started, files=meta["files"])
+    numerics.check(f"building {cid}")
     with clock.stage("base_scene"):
         base = base_scene(case["task"])
     # "generate" includes the object_* stages (mesh work of generated objects).
