@@ -334,7 +334,7 @@ def write_outputs(catalog: dict, catalog_file: Path, results: Path, outputs: Out
             f"median {statistics.median(wall):.1f} s per render-free episode on one worker "
             f"({3600 / statistics.mean(wall):.0f} episodes per hour per worker)"
             if wall
-            else "-"
+            else "- (no episode ran in this database: its trials were carried from the committed certificate)"
         ),
         "written": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()) + " by `vpro certify`",
     }
