@@ -34,6 +34,7 @@ WALL_SIDES = 16  # candidate sides of a wide object's wall
 HANDLE_MAX_M = 0.03  # a handle is thinner than this across
 SOLID_TOP_M = 0.025  # a geom over the centre reaching this close to the top makes the top solid
 HANDLE_LINK_M = 0.03  # thin parts this close together belong to one handle
+OUTER_BAND_M = 0.03  # a part sticking out toward a side: geoms this close to the object's farthest one
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,10 @@ def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.append(major, 0.0), np.append(minor, 0.0)
 
 
-def plan_grasp(world: World, instance: str) -> Grasp:
+def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) -> Grasp:
+    """The grasp of `instance`; with `toward` (a horizontal unit vector), one on that side of the
+    object (a thin part sticking out there, else its wall there), so the hand can lead it into a
+    covered cavity and stay outside."""
     pts = world.points(instance)
     lo, hi = pts.min(0), pts.max(0)
     height = hi[2] - lo[2]
@@ -67,12 +71,12 @@ def plan_grasp(world: World, instance: str) -> Grasp:
         point = mid + major * (proj_major.max() + proj_major.min()) / 2
         point[2] = z
         return Grasp(point, minor, width, rim=False)
-    handle = handle_grasp(world, instance, pts)
+    handle = handle_grasp(world, instance, pts) if toward is None else outer_part_grasp(world, instance, toward)
     if handle is not None:
         return handle
     # A wide object: pinch its wall, fingers closing radially, on the side nearest the robot where
     # the outer finger and the hand have room (a bowl in a drawer stands close to the drawer's wall).
-    robot = np.append(ROBOT_BASE_XY - center[:2], 0.0)
+    robot = np.append(ROBOT_BASE_XY - center[:2], 0.0) if toward is None else np.asarray(toward, dtype=float)
     robot /= np.linalg.norm(robot)
     boxes = obstacle_boxes(world, (instance,))
     z = max(hi[2] - WALL_DEPTH_M, lo[2] + 0.4 * height)
@@ -140,6 +144,23 @@ def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
     return Grasp(point, axis, float(min(size[0], size[1])), rim=False)
 
 
+def outer_part_grasp(world: World, instance: str, toward: np.ndarray) -> Grasp | None:
+    """A grasp across the object's thin part that sticks out farthest toward `toward` (a mug's
+    handle): its collision geoms within OUTER_BAND_M of its farthest point that way, when they are
+    thinner than HANDLE_MAX_M across."""
+    boxes = [geom_corners(world.m, world.d, [g]) for g in world.geoms(instance)]
+    reach = [float(((b.min(0) + b.max(0)) / 2)[:2] @ toward[:2]) for b in boxes]
+    part = np.concatenate([b for b, r in zip(boxes, reach, strict=True) if r >= max(reach) - OUTER_BAND_M])
+    lo, hi = part.min(0), part.max(0)
+    size = hi - lo
+    if min(size[0], size[1]) >= HANDLE_MAX_M:
+        return None
+    axis = np.array([1.0, 0.0, 0.0]) if size[0] < size[1] else np.array([0.0, 1.0, 0.0])
+    point = (lo + hi) / 2
+    point[2] = max(lo[2] + 0.3 * size[2], hi[2] - 0.02)
+    return Grasp(point, axis, float(min(size[0], size[1])), rim=False)
+
+
 def blocked_spots(boxes: np.ndarray, grasp: Grasp) -> int:
     """Obstacle boxes in the way of the open fingers coming down (boxes: (N, 2, 3) world boxes)."""
     across = np.array([-grasp.axis[1], grasp.axis[0], 0.0])
@@ -161,10 +182,11 @@ def grasp_orientation(world: World, axis: np.ndarray) -> np.ndarray:
     return motion.down_with_yaw(yaw)
 
 
-def pick(world: World, instance: str, attempts: int = 3) -> Actions:
-    """Grasp `instance` and lift it LIFT_M; SkillFailed when it does not come up after `attempts`."""
+def pick(world: World, instance: str, attempts: int = 3, toward: np.ndarray | None = None) -> Actions:
+    """Grasp `instance` (on its `toward` side, see `plan_grasp`) and lift it LIFT_M; SkillFailed
+    when it does not come up after `attempts`."""
     for attempt in range(attempts):
-        grasp = plan_grasp(world, instance)
+        grasp = plan_grasp(world, instance, toward)
         orient = grasp_orientation(world, grasp.axis)
         start_z = world.body_pos(instance)[2]
         above = grasp.point + [0, 0, HOVER_M]

@@ -7,7 +7,8 @@ predicate functions, so a predicate that already holds gets no skill. The order:
 2. open what the goal asks open, and every closed drawer or door something must go *into*;
 3. placements (`On`, `In`), in the goal's order;
 4. close what the goal asks closed (after whatever goes inside).
-A flat object too wide to pinch that must go onto a table region is pushed there.
+A flat object too wide to pinch that must go onto a table region is pushed there; an object that
+must go into a covered cavity (the microwave) goes in sideways through its opening.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
-from vpro_assets.rollout.policies.oracle import door, drawer, knob, push
+from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push
 from vpro_assets.rollout.policies.oracle.articulation import needs_opening, owner_of
 from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, principal_axes
 from vpro_assets.rollout.policies.oracle.motion import Actions
@@ -72,6 +73,10 @@ def _push(world: World, obj: str, region: str) -> Actions:
     return push.push_to(world, obj, region)
 
 
+def _put_in(world: World, held: str, region: str) -> Actions:
+    return cavity.put_in(world, held, region)
+
+
 def _pick_place(world: World, held: str, relation: str, dest: str) -> Actions:
     return pick_place(world, held, relation, dest)
 
@@ -103,6 +108,8 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
             _, obj, dest = pred
             if _pushable(world, obj, dest):
                 steps.append(Step("push", pred, partial(_push, obj=obj, region=dest)))
+            elif pred[0] == "in" and cavity.covered(world, dest) is not None:
+                steps.append(Step("cavity", pred, partial(_put_in, held=obj, region=dest)))
             else:
                 steps.append(Step("pick_place", pred, partial(_pick_place, held=obj, relation=pred[0], dest=dest)))
     for pred in todo:
