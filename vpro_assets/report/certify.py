@@ -28,9 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from vpro_assets.benchmark import certificate as cert
-from vpro_assets.benchmark.catalog import library_versions
 from vpro_assets.benchmark.lock import lock_path
-from vpro_assets.core import paths
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import canonical_json, sha256_file
@@ -41,7 +39,7 @@ from vpro_assets.rollout.case_env import CaseUnavailableError, check_available
 from vpro_assets.rollout.episode import EpisodeSettings
 from vpro_assets.rollout.failure_replay import replay
 from vpro_assets.rollout.jobs import base_row, make_job
-from vpro_assets.rollout.runner import RunSummary, run_eval
+from vpro_assets.rollout.runner import RunSummary, create_run, run_eval
 from vpro_assets.rollout.spec import policy_label
 from vpro_assets.rollout.store import ResultsStore
 
@@ -110,18 +108,21 @@ def check_built(cases: Sequence[dict]) -> None:
         )
 
 
-def carry_certificate(store: ResultsStore, catalog: dict, certificate: dict, settings: EpisodeSettings) -> list[dict]:
+def carry_certificate(
+    store: ResultsStore, catalog: dict, certificate: dict, settings: EpisodeSettings, skip: Sequence[str] = ()
+) -> list[dict]:
     """Record the trials of the certificate's current entries (case record unchanged, same episode
-    settings and simulator) as rows of the certification run; the cases carried."""
-    sim = {k: v for k, v in certificate.get("versions", {}).items() if k in simulator_versions()}
-    if certificate.get("settings") != settings.to_json() or sim != simulator_versions():
+    settings and simulator; not in `skip`) as rows of the certification run; the cases carried."""
+    current = simulator_versions()
+    sim = {k: v for k, v in certificate.get("versions", {}).items() if k in current}
+    if certificate.get("settings") != settings.to_json() or sim != current:
         log.warning("the certificate ran under other settings or another simulator (%s): nothing carried", sim)
         return []
     records = {c["id"]: c for c in catalog.get("normal", []) + catalog["cases"] if cert.certifiable(c)}
     carried = []
     for cid, entry in certificate["cases"].items():
         case = records.get(cid)
-        if case is None or entry.get("case_sha256") != cert.case_sha256(case):
+        if case is None or cid in skip or entry.get("case_sha256") != cert.case_sha256(case):
             continue
         solved = set(entry["solved_trials"])
         for trial, steps, final in zip(entry["trial_ids"], entry["steps"], entry["final_state"], strict=True):
@@ -162,12 +163,9 @@ def run_certify(
                 f"{results}: a certification run exists; continue it with --resume (or certify into a new file)"
             )
         if resume and not exists and carry_from is not None:
-            store.create_run(
-                RUN_ID, POLICY, policy_label(POLICY), settings.to_json(), list(selection), trials,
-                library_versions(), cert.file_sha256(paths.catalog_path()),
-            )  # fmt: skip
+            create_run(store, RUN_ID, POLICY, policy_label(POLICY), settings, selection, trials)
             catalog, certificate = carry_from
-            carried = [c for c in carry_certificate(store, catalog, certificate, settings) if c["id"] not in redo]
+            carried = carry_certificate(store, catalog, certificate, settings, skip=redo)
             exists = True
             log.info("carried %d case(s) from the certificate", len(carried))
         if exists and redo:

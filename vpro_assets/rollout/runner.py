@@ -74,17 +74,30 @@ def _open_run(
         run_id = run_id or new_run_id(pid)
         if store.run(run_id) is not None:
             raise VProError(f"{results}: run {run_id!r} exists; continue it with --resume")
-        store.create_run(
-            run_id,
-            policy_spec,
-            pid,
-            settings.to_json(),
-            list(selection),
-            trials,
-            library_versions(),
-            _catalog_sha(paths.catalog_path()),
-        )
+        create_run(store, run_id, policy_spec, pid, settings, selection, trials)
     return run_id
+
+
+def create_run(
+    store: ResultsStore,
+    run_id: str,
+    policy_spec: str,
+    pid: str,
+    settings: EpisodeSettings,
+    selection: Sequence[str],
+    trials: int,
+) -> None:
+    """Record a new run with the library versions and the catalog it runs on."""
+    store.create_run(
+        run_id,
+        policy_spec,
+        pid,
+        settings.to_json(),
+        list(selection),
+        trials,
+        library_versions(),
+        _catalog_sha(paths.catalog_path()),
+    )
 
 
 def _pending_jobs(
