@@ -8,7 +8,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from vpro_assets.core.mjgeom import axis_angle_quat, colliding, geom_corners, quat_matrix, quat_mul, world_aabb
+from vpro_assets.core.mjgeom import (
+    axis_angle_quat,
+    colliding,
+    geom_corners,
+    geom_pieces,
+    quat_matrix,
+    quat_mul,
+    world_aabb,
+)
 
 XML = """
 <mujoco>
@@ -45,6 +53,28 @@ def test_corners_cover_every_geom_and_colliding_skips_visual_ones(scene):
     assert hi[2] == pytest.approx(4.05)  # the sphere 1 m above the box centre
     with pytest.raises(ValueError):
         world_aabb(model, data, [])
+
+
+def test_pieces_of_a_plate_turned_45_degrees_hug_it_where_its_world_box_does_not():
+    """A 40 x 2 cm plate turned 45 degrees about z: its world box is a 30 cm square, 95% empty;
+    its 2 cm pieces' boxes cover the plate and stay within about 2 cm of it."""
+    xml = """<mujoco><worldbody><body quat="0.92387953 0 0 0.38268343">
+      <geom type="box" size="0.2 0.01 0.005"/></body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    lo, hi = world_aabb(model, data, [0])
+    pieces = geom_pieces(model, data, 0, 0.02)
+    assert pieces.shape == (20, 2, 3)  # 20 x 1 x 1 cells of at most 2 cm
+    corner = np.array([lo[0] + 0.01, hi[1] - 0.01])  # inside the world box, 20 cm from the plate
+    covers = np.all((pieces[:, 0, :2] <= corner) & (corner <= pieces[:, 1, :2]), axis=1)
+    assert not covers.any()
+    along = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4)])
+    for t in np.linspace(-0.19, 0.19, 9):  # every point of the plate's axis is in some piece
+        p = along * t
+        assert np.any(np.all((pieces[:, 0, :2] <= p) & (p <= pieces[:, 1, :2]), axis=1))
+    area = np.prod(pieces[:, 1, :2] - pieces[:, 0, :2], axis=1).sum()
+    assert area < 0.2 * np.prod((hi - lo)[:2])
 
 
 def test_rotation_helpers_agree_with_each_other_and_the_right_hand_rule():

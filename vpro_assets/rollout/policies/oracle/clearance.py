@@ -12,65 +12,76 @@ from __future__ import annotations
 
 import numpy as np
 
-from vpro_assets.core.mjgeom import geom_corners
+from vpro_assets.core.mjgeom import geom_pieces
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
 from vpro_assets.rollout.policies.oracle.world import World
 
 MARGIN_M = 0.01
-SLIDE_STEP_M = 0.02
+SLIDE_STEP_M = 0.01
 SLIDE_MAX_M = 0.20
 DIRECTIONS = 16
+PIECE_M = 0.02
+BESIDE_M = 0.003  # sliding out from under an overhang, the object passes this close to walls
 
 
 def obstacle_boxes(world: World, exclude: tuple[str, ...]) -> np.ndarray:
-    """(N, 2, 3) world boxes (lo, hi) of the obstacles' collision geoms."""
-    boxes = []
-    for g in world.obstacle_geoms(exclude):
-        pts = geom_corners(world.m, world.d, [g])
-        boxes.append((pts.min(0), pts.max(0)))
-    return np.array(boxes).reshape(-1, 2, 3)
+    """(N, 2, 3) world boxes (lo, hi) of the obstacles' collision geoms, cut into pieces of at most
+    PIECE_M so that rotated plates (a turned cabinet's walls and top) are not taken for blocks."""
+    boxes = [geom_pieces(world.m, world.d, g, PIECE_M) for g in world.obstacle_geoms(exclude)]
+    return np.concatenate(boxes) if boxes else np.zeros((0, 2, 3))
 
 
-def _overlap_xy(boxes: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    return np.all(boxes[:, 0, :2] < hi[:2] + MARGIN_M, axis=1) & np.all(boxes[:, 1, :2] > lo[:2] - MARGIN_M, axis=1)
+def object_boxes(world: World, instance: str) -> np.ndarray:
+    """(M, 2, 3) world boxes of the pieces of an object's collision geoms: its footprint (a round
+    bowl's, not the square around it)."""
+    return np.concatenate([geom_pieces(world.m, world.d, g, PIECE_M) for g in world.geoms(instance)])
 
 
-def overhead(boxes: np.ndarray, lo: np.ndarray, hi: np.ndarray, up_to: float) -> float | None:
-    """Lowest bottom of an obstacle over the footprint [lo, hi] between its top and `up_to`."""
-    over = _overlap_xy(boxes, lo, hi) & (boxes[:, 0, 2] > hi[2] - 0.005) & (boxes[:, 0, 2] < up_to)
+def _overlap_xy(boxes: np.ndarray, own: np.ndarray, margin: float = MARGIN_M) -> np.ndarray:
+    """Which obstacle boxes come within `margin` of any of the object's boxes `own`, in plan."""
+    lo, hi = own[None, :, 0, :2] - margin, own[None, :, 1, :2] + margin
+    return np.any(np.all(boxes[:, None, 0, :2] < hi, axis=2) & np.all(boxes[:, None, 1, :2] > lo, axis=2), axis=1)
+
+
+def overhead(boxes: np.ndarray, own: np.ndarray, up_to: float) -> float | None:
+    """Lowest bottom of an obstacle over the object (its boxes `own`) between its top and `up_to`."""
+    top = own[:, 1, 2].max()
+    over = (boxes[:, 0, 2] > top - 0.005) & (boxes[:, 0, 2] < up_to)
+    over[over] = _overlap_xy(boxes[over], own)
     return float(boxes[over, 0, 2].min()) if over.any() else None
 
 
-def _blocked(boxes: np.ndarray, lo: np.ndarray, hi: np.ndarray, up_to: float) -> bool:
-    """Anything in the footprint between the object's bottom and `up_to`."""
-    hit = _overlap_xy(boxes, lo, hi) & (boxes[:, 1, 2] > lo[2] + 0.005) & (boxes[:, 0, 2] < up_to)
-    return bool(hit.any())
+def _beside(boxes: np.ndarray, own: np.ndarray) -> bool:
+    """Anything within BESIDE_M of the object's sides, between its bottom and its top (a drawer's
+    walls around a bowl in it; not the floor it stands on nor the roof over it)."""
+    hit = (boxes[:, 1, 2] > own[:, 0, 2].min() + 0.005) & (boxes[:, 0, 2] < own[:, 1, 2].max() - 0.005)
+    return bool(hit.any() and _overlap_xy(boxes[hit], own, BESIDE_M).any())
 
 
 def lift_clear(world: World, held: str, up_to: float) -> Actions:
     """Raise the held object until its bottom is at `up_to` - its height, sliding out from under any
     overhang first."""
     boxes = obstacle_boxes(world, (held,))
-    box = world.box(held)
-    roof = overhead(boxes, box.lo, box.hi, up_to)
+    own = object_boxes(world, held)
+    roof = overhead(boxes, own, up_to)
     orient = world.eef_mat()
     if roof is not None:
-        rise = max(0.0, roof - MARGIN_M - box.hi[2])
+        rise = max(0.0, roof - MARGIN_M - own[:, 1, 2].max())
         yield from motion.move_to(world, world.eef() + [0, 0, rise], CLOSE, orient, tol=0.01, max_steps=40, speed=0.4)
-        box = world.box(held)
-        shift = _escape(boxes, box.lo, box.hi, up_to)
+        shift = _escape(boxes, object_boxes(world, held), up_to)
         if shift is not None:
-            yield from motion.move_to(world, world.eef() + shift, CLOSE, orient, tol=0.01, max_steps=80, speed=0.4)
+            yield from motion.move_to(world, world.eef() + shift, CLOSE, orient, tol=0.004, max_steps=80, speed=0.4)
 
 
-def _escape(boxes: np.ndarray, lo: np.ndarray, hi: np.ndarray, up_to: float) -> np.ndarray | None:
-    """The shortest horizontal shift after which nothing is over or beside the object up to `up_to`."""
-    height = hi[2] - lo[2]
+def _escape(boxes: np.ndarray, own: np.ndarray, up_to: float) -> np.ndarray | None:
+    """The shortest horizontal shift after which nothing is over the object up to `up_to`, along
+    which it slides past nothing beside it."""
     for dist in np.arange(SLIDE_STEP_M, SLIDE_MAX_M + 1e-9, SLIDE_STEP_M):
         for k in range(DIRECTIONS):
             ang = 2 * np.pi * k / DIRECTIONS
             shift = np.array([np.cos(ang), np.sin(ang), 0.0]) * dist
-            if not _blocked(boxes, lo + shift, hi + shift, up_to + height):
+            path = np.arange(SLIDE_STEP_M, dist + 1e-9, SLIDE_STEP_M) / dist
+            if overhead(boxes, own + shift, up_to) is None and not any(_beside(boxes, own + shift * f) for f in path):
                 return shift
     return None

@@ -16,7 +16,7 @@ import numpy as np
 
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
-from vpro_assets.rollout.policies.oracle.clearance import lift_clear, obstacle_boxes
+from vpro_assets.rollout.policies.oracle.clearance import lift_clear, object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
@@ -29,11 +29,18 @@ LIFT_M = 0.10  # lift after closing, before any carry
 MIN_LIFT_M = 0.02  # the object counts as lifted when it rose this much
 TABLE_CLEARANCE_M = 0.008  # grip site at least this high above the object's bottom
 ROBOT_BASE_XY = np.array([-0.66, 0.0])  # the arm stands at -x in every LIBERO scene
-FINGER_REACH_M = 0.045  # each open finger this far from the grip site along the closing axis
+# The open hand around its grip site: (centre along the closing axis, half length along it, half
+# width across, height of the part's bottom below the grip site). The fingertips' spots (4.5 cm
+# out, 1 cm below: what the fingers need to pass beside a bowl's wall); the palm 21 x 6.6 cm,
+# 2.6 cm above (robosuite's Panda `hand_collision`).
+HAND_PARTS = ((0.045, 0.01, 0.012, 0.01), (-0.045, 0.01, 0.012, 0.01), (0.0, 0.105, 0.033, -0.026))
 WALL_SIDES = 16  # candidate sides of a wide object's wall
 HANDLE_MAX_M = 0.03  # a handle is thinner than this across
 SOLID_TOP_M = 0.025  # a geom over the centre reaching this close to the top makes the top solid
 HANDLE_LINK_M = 0.03  # thin parts this close together belong to one handle
+HANDLE_MIN_HEIGHT_M = 0.02  # a handle is at least this tall
+NARROW_DEPTH_M = 0.03  # deepest pinch below a solid object's top
+FINGER_PAD_HALF_M = 0.01  # the finger pads reach this far below the grip site
 OUTER_BAND_M = 0.03  # a part sticking out toward a side: geoms this close to the object's farthest one
 
 
@@ -74,28 +81,27 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     handle = handle_grasp(world, instance, pts) if toward is None else outer_part_grasp(world, instance, toward)
     if handle is not None:
         return handle
+    narrow = narrow_top_grasp(world, instance)
+    if narrow is not None:
+        return narrow
     # A wide object: pinch its wall, fingers closing radially, on the side nearest the robot where
     # the outer finger and the hand have room (a bowl in a drawer stands close to the drawer's wall).
     robot = np.append(ROBOT_BASE_XY - center[:2], 0.0) if toward is None else np.asarray(toward, dtype=float)
     robot /= np.linalg.norm(robot)
     boxes = obstacle_boxes(world, (instance,))
     z = max(hi[2] - WALL_DEPTH_M, lo[2] + 0.4 * height)
-    best: tuple[int, Grasp] | None = None
+    best: Grasp | None = None
     for k in sorted(range(WALL_SIDES), key=lambda k: abs(((k + WALL_SIDES / 2) % WALL_SIDES) - WALL_SIDES / 2)):
         ang = 2 * np.pi * k / WALL_SIDES
         rot = np.array([[np.cos(ang), -np.sin(ang), 0], [np.sin(ang), np.cos(ang), 0], [0, 0, 1]])
         toward = rot @ robot
         proj = (pts[:, :2] - center[:2]) @ toward[:2]
         point = center + toward * (proj.max() - WALL_INSET_M)
-        point[2] = z
-        grasp = Grasp(point, toward, 2 * WALL_INSET_M, rim=True)
-        hits = blocked_spots(boxes, grasp)
-        if hits == 0:
-            return grasp
-        if best is None or hits < best[0]:
-            best = (hits, grasp)
+        point[2] = max(z, reach_height(boxes, point, toward))
+        if best is None or point[2] < best.point[2] - 1e-3:  # the deepest pinch; of equals, nearest the robot
+            best = Grasp(point, toward, 2 * WALL_INSET_M, rim=True)
     assert best is not None  # WALL_SIDES candidates were scored
-    return best[1]
+    return best
 
 
 def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
@@ -138,10 +144,34 @@ def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
     part = max((np.concatenate(g) for g in groups), key=lambda p: float(p[:, 2].max() - p[:, 2].min()))
     lo, hi = part.min(0), part.max(0)
     size = hi - lo
+    if size[2] < HANDLE_MIN_HEIGHT_M or min(size[0], size[1]) > MAX_PINCH_M:
+        return None  # a flange of a deformed mesh's convex pieces, or a ring of walls: no handle
     axis = np.array([1.0, 0.0, 0.0]) if size[0] < size[1] else np.array([0.0, 1.0, 0.0])
     point = (lo + hi) / 2
     point[2] = max(lo[2] + 0.3 * size[2], hi[2] - 0.02)
     return Grasp(point, axis, float(min(size[0], size[1])), rim=False)
+
+
+def narrow_top_grasp(world: World, instance: str) -> Grasp | None:
+    """A solid object too wide to pinch whole but narrow toward its top (a tapered can): pinched as
+    deep (down to NARROW_DEPTH_M) as the fingers' pads, coming down, still pass outside everything
+    above them. None when even its top is too wide (an inverted bowl: its 5 cm foot stands 6 mm
+    over 9 cm shoulders, so the pads meet the shoulders)."""
+    own = object_boxes(world, instance)
+    top = float(own[:, 1, 2].max())
+    best = None
+    for depth in np.arange(0.004, NARROW_DEPTH_M + 1e-9, 0.002):
+        above = own[own[:, 1, 2] > top - depth - FINGER_PAD_HALF_M]
+        xy = np.concatenate([above[:, 0, :2], above[:, 1, :2], above[:, [0, 1], [0, 1]], above[:, [1, 0], [0, 1]]])
+        major, minor = principal_axes(np.c_[xy, np.zeros(len(xy))])
+        proj = xy @ minor[:2]
+        if proj.max() - proj.min() > MAX_PINCH_M:
+            break
+        along = xy @ major[:2]
+        point = minor * (proj.max() + proj.min()) / 2 + major * (along.max() + along.min()) / 2
+        point[2] = top - depth
+        best = Grasp(point, minor, float(proj.max() - proj.min()), rim=False)
+    return best
 
 
 def outer_part_grasp(world: World, instance: str, toward: np.ndarray) -> Grasp | None:
@@ -161,17 +191,21 @@ def outer_part_grasp(world: World, instance: str, toward: np.ndarray) -> Grasp |
     return Grasp(point, axis, float(min(size[0], size[1])), rim=False)
 
 
-def blocked_spots(boxes: np.ndarray, grasp: Grasp) -> int:
-    """Obstacle boxes in the way of the open fingers coming down (boxes: (N, 2, 3) world boxes)."""
-    across = np.array([-grasp.axis[1], grasp.axis[0], 0.0])
-    spots = [grasp.point + grasp.axis * FINGER_REACH_M, grasp.point - grasp.axis * FINGER_REACH_M]
-    hits = 0
-    for spot in spots:
-        lo = spot - np.abs(grasp.axis) * 0.01 - np.abs(across) * 0.012
-        hi = spot + np.abs(grasp.axis) * 0.01 + np.abs(across) * 0.012
-        lo[2], hi[2] = spot[2] - 0.01, spot[2] + HOVER_M
-        hits += int(np.sum(np.all(boxes[:, 0] < hi, axis=1) & np.all(boxes[:, 1] > lo, axis=1)))
-    return hits
+def reach_height(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray) -> float:
+    """Lowest grip-site height at which the open hand, coming down over `point` with its fingers
+    closing along `axis`, touches no obstacle (boxes: (N, 2, 3) world boxes): each part of the hand
+    (HAND_PARTS: the two fingers, the palm) stops on the highest top under its footprint."""
+    across = np.array([-axis[1], axis[0]])
+    rel = (boxes[:, 0, :2] + boxes[:, 1, :2]) / 2 - point[:2]
+    half = (boxes[:, 1, :2] - boxes[:, 0, :2]) / 2
+    along_c, across_c = rel @ axis[:2], rel @ across
+    along_r, across_r = half @ np.abs(axis[:2]), half @ np.abs(across)
+    z = -np.inf
+    for offset, half_along, half_across, below in HAND_PARTS:
+        under = (np.abs(along_c - offset) <= half_along + along_r) & (np.abs(across_c) <= half_across + across_r)
+        if under.any():
+            z = max(z, float(boxes[under, 1, 2].max()) + below)
+    return z
 
 
 def grasp_orientation(world: World, axis: np.ndarray) -> np.ndarray:

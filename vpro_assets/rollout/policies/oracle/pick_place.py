@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import joint_for, owner_of
+from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
 from vpro_assets.rollout.policies.oracle.grasp import pick
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
@@ -103,27 +103,20 @@ def _drawer_region(world: World, arg: str) -> bool:
 
 def support_height(world: World, xy: np.ndarray, exclude: tuple[str, ...] = (), radius: float = 0.02) -> float:
     """Top of the highest collision geom whose world box covers `xy` (the table if none)."""
-    top = world.table_z
-    for g in world.obstacle_geoms(exclude):
-        pts = geom_corners(world.m, world.d, [g])
-        lo, hi = pts.min(0), pts.max(0)
-        if np.all(xy >= lo[:2] - radius) and np.all(xy <= hi[:2] + radius):
-            top = max(top, float(hi[2]))
-    return top
+    boxes = obstacle_boxes(world, exclude)
+    under = np.all(boxes[:, 0, :2] - radius <= xy, axis=1) & np.all(xy <= boxes[:, 1, :2] + radius, axis=1)
+    return max(world.table_z, float(boxes[under, 1, 2].max(initial=world.table_z)))
 
 
 def corridor_top(world: World, a: np.ndarray, b: np.ndarray, margin: float, exclude: tuple[str, ...]) -> float:
     """Highest obstacle top whose box comes within `margin` of the segment a-b (xy)."""
-    top = world.table_z
     ab = b - a
     n = max(2, int(np.linalg.norm(ab) / 0.02) + 1)
     samples = a + np.linspace(0, 1, n)[:, None] * ab
-    for g in world.obstacle_geoms(exclude):
-        pts = geom_corners(world.m, world.d, [g])
-        lo, hi = pts.min(0)[:2] - margin, pts.max(0)[:2] + margin
-        if np.any(np.all((samples >= lo) & (samples <= hi), axis=1)):
-            top = max(top, float(pts[:, 2].max()))
-    return top
+    boxes = obstacle_boxes(world, exclude)
+    lo, hi = boxes[:, None, 0, :2] - margin, boxes[:, None, 1, :2] + margin  # (N, 1, 2) against (n, 2)
+    near = np.any(np.all((samples >= lo) & (samples <= hi), axis=2), axis=1)
+    return max(world.table_z, float(boxes[near, 1, 2].max(initial=world.table_z)))
 
 
 def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()) -> Actions:
