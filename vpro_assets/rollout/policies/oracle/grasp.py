@@ -10,7 +10,7 @@ pinched at its wall, the fingers closing radially on the side nearest the robot.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -22,6 +22,7 @@ from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 MAX_PINCH_M = 0.072  # widest object the open fingers (about 8 cm) take across
 WALL_INSET_M = 0.012  # the fingers' centre this far inside an object's outer wall
+MIN_RIM_PINCH_M = 0.012  # a wall pinch less deep than this below the rim does not hold
 WALL_DEPTH_M = 0.035  # a wall is pinched this far below its top (deep: a shallow pinch lets a bowl swing out)
 HOVER_M = 0.08
 CLEAR_ABOVE_TABLE_M = 0.40  # overhangs below this height over a grasped object are slid out from under  # approach height above the grasp point
@@ -90,18 +91,22 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     robot /= np.linalg.norm(robot)
     boxes = obstacle_boxes(world, (instance,))
     z = max(hi[2] - WALL_DEPTH_M, lo[2] + 0.4 * height)
-    best: Grasp | None = None
+    sides = []
     for k in sorted(range(WALL_SIDES), key=lambda k: abs(((k + WALL_SIDES / 2) % WALL_SIDES) - WALL_SIDES / 2)):
         ang = 2 * np.pi * k / WALL_SIDES
         rot = np.array([[np.cos(ang), -np.sin(ang), 0], [np.sin(ang), np.cos(ang), 0], [0, 0, 1]])
         toward = rot @ robot
         proj = (pts[:, :2] - center[:2]) @ toward[:2]
         point = center + toward * (proj.max() - WALL_INSET_M)
-        point[2] = max(z, reach_height(boxes, point, toward))
-        if best is None or point[2] < best.point[2] - 1e-3:  # the deepest pinch; of equals, nearest the robot
-            best = Grasp(point, toward, 2 * WALL_INSET_M, rim=True)
-    assert best is not None  # WALL_SIDES candidates were scored
-    return best
+        point[2] = z
+        sides.append(Grasp(point, toward, 2 * WALL_INSET_M, rim=True))  # nearest the robot first
+    reach = [max(z, reach_height(boxes, g.point, g.axis)) for g in sides]
+    k = int(np.argmin(np.round(reach, 3)))  # the deepest pinch; of equals, nearest the robot
+    if reach[k] <= hi[2] - MIN_RIM_PINCH_M:
+        return replace(sides[k], point=np.append(sides[k].point[:2], reach[k]))
+    # No side is free from above (an opened drawer over a bowl): aim at the full depth on the side
+    # with the fewest obstacles where the fingertips come down, and let the hand squeeze past.
+    return min(sides, key=lambda g: blocked_spots(boxes, g))
 
 
 def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
@@ -206,6 +211,19 @@ def reach_height(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray) -> floa
         if under.any():
             z = max(z, float(boxes[under, 1, 2].max()) + below)
     return z
+
+
+def blocked_spots(boxes: np.ndarray, grasp: Grasp) -> int:
+    """Obstacle boxes in the way of the open fingertips coming down (boxes: (N, 2, 3) world boxes)."""
+    across = np.array([-grasp.axis[1], grasp.axis[0], 0.0])
+    hits = 0
+    for offset, half_along, half_across, _ in HAND_PARTS[:2]:
+        spot = grasp.point + grasp.axis * offset
+        lo = spot - np.abs(grasp.axis) * half_along - np.abs(across) * half_across
+        hi = spot + np.abs(grasp.axis) * half_along + np.abs(across) * half_across
+        lo[2], hi[2] = spot[2] - 0.01, spot[2] + HOVER_M
+        hits += int(np.sum(np.all(boxes[:, 0] < hi, axis=1) & np.all(boxes[:, 1] > lo, axis=1)))
+    return hits
 
 
 def grasp_orientation(world: World, axis: np.ndarray) -> np.ndarray:
