@@ -25,11 +25,20 @@ PIECE_M = 0.02
 BESIDE_M = 0.003  # sliding out from under an overhang, the object passes this close to walls
 
 
-def obstacle_boxes(world: World, exclude: tuple[str, ...]) -> np.ndarray:
+def obstacle_pieces(world: World, exclude: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
     """(N, 2, 3) world boxes (lo, hi) of the obstacles' collision geoms, cut into pieces of at most
-    PIECE_M so that rotated plates (a turned cabinet's walls and top) are not taken for blocks."""
-    boxes = [geom_pieces(world.m, world.d, g, PIECE_M) for g in world.obstacle_geoms(exclude)]
-    return np.concatenate(boxes) if boxes else np.zeros((0, 2, 3))
+    PIECE_M so that rotated plates (a turned cabinet's walls and top) are not taken for blocks, and
+    the geom of each box (N,)."""
+    geoms = world.obstacle_geoms(exclude)
+    boxes = [geom_pieces(world.m, world.d, g, PIECE_M) for g in geoms]
+    if not boxes:
+        return np.zeros((0, 2, 3)), np.zeros(0, dtype=int)
+    return np.concatenate(boxes), np.repeat(geoms, [len(b) for b in boxes])
+
+
+def obstacle_boxes(world: World, exclude: tuple[str, ...]) -> np.ndarray:
+    """The boxes of `obstacle_pieces`."""
+    return obstacle_pieces(world, exclude)[0]
 
 
 def object_boxes(world: World, instance: str) -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
-from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
+from vpro_assets.rollout.policies.oracle.clearance import obstacle_pieces
 from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
@@ -81,6 +81,7 @@ def _leg(
     boxes: np.ndarray,
     hand: list[np.ndarray],
     owners: list[str],
+    geoms: np.ndarray,
 ) -> tuple[set, Leg]:
     """The obstacles a leg frm -> to meets (object and hand) with its best hand yaw and start inside
     the object, and the leg."""
@@ -101,7 +102,7 @@ def _leg(
             hits = set(obj_hits)
             for part in hand:
                 hits |= _sweep(boxes, part @ orient.T, grips)
-            score = (len({owners[h] for h in hits}), len(hits))
+            score = (len({owners[h] for h in hits}), len({geoms[h] for h in hits}))
             if best is None or score < best[0]:
                 best = (score, hits, Leg(to, orient, inside))
     assert best is not None  # YAWS_DEG and INSIDE_CHOICES_M are not empty
@@ -110,8 +111,8 @@ def _leg(
 
 def push_path(world: World, obj: str, target: np.ndarray) -> list[Leg]:
     """The legs of the push with the fewest obstacles on the way (the straight path on a tie)."""
-    boxes = obstacle_boxes(world, (obj,))
-    owners = [world.root_name(g) for g in world.obstacle_geoms((obj,))]  # the geoms of `boxes`, in order
+    boxes, geoms = obstacle_pieces(world, (obj,))
+    owners = [world.root_name(g) for g in geoms]  # the object or fixture of each box
     hand = hand_points(world)
     pos = world.body_pos(obj)[:2]
     routes = [[target], [np.array([pos[0], target[1]]), target], [np.array([target[0], pos[1]]), target]]
@@ -122,11 +123,11 @@ def push_path(world: World, obj: str, target: np.ndarray) -> list[Leg]:
         for way in route:
             if np.linalg.norm(way - frm) < MIN_LEG_M:
                 continue
-            leg_hits, leg = _leg(world, obj, frm, way, boxes, hand, owners)
+            leg_hits, leg = _leg(world, obj, frm, way, boxes, hand, owners, geoms)
             hits |= leg_hits
             legs.append(leg)
             frm = way
-        score = (len({owners[h] for h in hits}), len(hits))  # objects met, then geoms met
+        score = (len({owners[h] for h in hits}), len({geoms[h] for h in hits}))  # objects met, then geoms met
         if legs and (best is None or score < best[0]):
             best = (score, legs)
     return best[1] if best else [Leg(target, grasp_orientation(world, np.array([0.0, 1.0, 0.0])), INSIDE_M)]
