@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
@@ -55,8 +56,10 @@ def covered(world: World, region: str) -> Cavity | None:
     if not world.has_site(region):
         return None
     owner = owner_of(world, region)
-    if owner not in dict(world.task.fixtures):
-        return None
+    if owner not in dict(world.task.fixtures) or any(
+        world.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE for j in world.joints_of(owner)
+    ):
+        return None  # a drawer is pulled out and filled from above
     moving = {g for j in world.joints_of(owner) for g in world.joint_geoms(j)}
     boxes = [geom_corners(world.m, world.d, [g]) for g in world.geoms(owner) if g not in moving]
     c = world.site_pos(region)
@@ -74,9 +77,12 @@ def covered(world: World, region: str) -> Cavity | None:
     low = min(ceiling, key=lambda b: b.min(0)[2])
     if low.min(0)[2] - floor >= HAND_HEADROOM_M:
         return None
+    # The region's two horizontal directions: its most horizontal axis and the one across it (a
+    # site may be turned on its side, one of its x and y axes then vertical).
+    flat = max((frame[:, k] for k in range(3)), key=lambda a: float(np.linalg.norm(a[:2])))
+    u = np.append(flat[:2] / np.linalg.norm(flat[:2]), 0.0)
     open_sides = []
-    for axis in (frame[:, 0], frame[:, 1]):
-        d = np.append(axis[:2] / np.linalg.norm(axis[:2]), 0.0)
+    for d in (u, np.array([-u[1], u[0], 0.0])):
         for sign in (1.0, -1.0):
             reach = float(np.abs(half[:2] @ d[:2])) + WALL_PROBE_M
             probe = c + sign * d * np.linspace(0.0, reach, 16)[:, None]
