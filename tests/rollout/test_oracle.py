@@ -18,7 +18,7 @@ from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode
 from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob
-from vpro_assets.rollout.policies.oracle.grasp import pick
+from vpro_assets.rollout.policies.oracle.grasp import above, narrowest, pick
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.plan import plan
 from vpro_assets.rollout.policies.oracle.policy import OracleController, OraclePolicy, libero_holds
@@ -83,6 +83,7 @@ def test_whole_task_episode(case_id):
         "libero_spatial-00/target_geometry_variation/taper-s2-v1",
         "libero_object-03/task_precondition_variation/object_pose-v1",
         "libero_10-00/target_geometry_variation/twist-s3-v2",  # a twisted can pinched at its narrower top
+        "libero_object-00/target_geometry_variation/taper-s3-v1",  # 8.2 cm across its hulls: pinched at its 5 cm top
     ],
 )
 def test_deformed_or_reposed_target_lifted_and_placed(case_id):
@@ -104,6 +105,23 @@ def test_deformed_or_reposed_target_lifted_and_placed(case_id):
         cenv.close()
     row = run_episode(case, 1, OraclePolicy(), EpisodeSettings(render=False))
     assert row["success"], case_id
+
+
+def test_narrowest_width_of_a_turned_box_and_the_top_of_a_tapered_solid():
+    """The width a grasp closes across: a 6 x 12 cm box turned 30 degrees is 6 cm across (its
+    world box is 11.2 cm); a frustum 8.2 cm square at its foot and 5 cm at its top, 8 cm tall, cut
+    1 cm below its top, is 5.4 cm across (its top vertices alone say 5 cm)."""
+    c, s_ = np.cos(np.radians(30)), np.sin(np.radians(30))
+    box = np.array([[x, y, z] for x in (-0.03, 0.03) for y in (-0.06, 0.06) for z in (0.0, 0.1)])
+    turned = box @ np.array([[c, -s_, 0], [s_, c, 0], [0, 0, 1]]).T
+    axis, width = narrowest(turned)
+    assert width == pytest.approx(0.06, abs=1e-4) and abs(axis @ [c, s_, 0]) == pytest.approx(1.0, abs=1e-3)
+    assert np.ptp(turned[:, 0]) > 0.11
+    square = np.array([[x, y] for x in (-1, 1) for y in (-1, 1)])
+    frustum = np.r_[np.c_[square * 0.041, np.zeros(4)], np.c_[square * 0.025, np.full(4, 0.08)]]
+    assert narrowest(frustum)[1] == pytest.approx(0.082)
+    assert narrowest(above([frustum], 0.07))[1] == pytest.approx(0.054)
+    assert len(above([frustum], 0.09)) == 0
 
 
 def test_drawer_opens_past_libero_open_threshold_then_closes_fully_home(scene):

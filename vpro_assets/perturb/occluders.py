@@ -65,7 +65,9 @@ def _image_boxes(model, data, geoms: np.ndarray, camera_id: int, near: float):
 
 class GeomHulls:
     """Points in each geom's frame whose convex hull contains the geom: a mesh's convex-hull
-    vertices (scipy), the box corners of `geom_aabb` otherwise. Cached by mesh name and size, so
+    vertices (scipy), the box corners of `geom_aabb` otherwise. The masks bound what can cover an
+    entity with them, the oracle measures what it grasps (a deformed can's convex pieces are
+    about a centimetre narrower than their boxes). Cached by mesh name and size, so
     a rebuilt sim (robosuite's hard reset) reuses them."""
 
     def __init__(self):
@@ -94,6 +96,10 @@ class GeomHulls:
             except QhullError:  # flat or degenerate: its box still bounds it
                 self._mesh[key] = box
         return self._mesh[key]
+
+    def world(self, model, data, geoms) -> list[np.ndarray]:
+        """Each geom's hull points carried to the world by its pose in `data`."""
+        return [self.points(model, g) @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g] for g in geoms]
 
 
 def _hull_boxes(model, data, geoms: np.ndarray, hulls: GeomHulls, camera_id: int, near: float):

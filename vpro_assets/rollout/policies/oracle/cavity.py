@@ -20,13 +20,14 @@ import numpy as np
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import owner_of
-from vpro_assets.rollout.policies.oracle.grasp import pick
+from vpro_assets.rollout.policies.oracle.grasp import HAND_PARTS, pick
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.pick_place import carry
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 HAND_HEADROOM_M = 0.19  # a region with less free height over its floor is covered
-HAND_HALF_DEPTH_M = 0.045  # the hand's half thickness across its fingers' closing axis (measured: 3.2-3.9 cm)
+HAND_MARGIN_M = 0.012
+HAND_HALF_DEPTH_M = HAND_PARTS[2][2] + HAND_MARGIN_M  # the palm's half width across the closing axis, and a margin
 FLOOR_CLEAR_M = 0.012  # the object's bottom this far above the cavity's floor while sliding in
 STAGE_M = 0.03  # the object this far in front of the cavity's front face before sliding in
 INSIDE_M = 0.03  # the object's body position this far past the region's near side

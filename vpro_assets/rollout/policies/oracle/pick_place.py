@@ -62,7 +62,7 @@ def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
         axis = open_direction(world, joint)
         radius = float(np.max(world.box(held).size[:2])) / 2
         xy = (handle_point(world, joint) - axis * (DRAWER_FRONT_M + radius + 0.015))[:2]
-    elif relation == "on":  # into a container the object may drop beside the others; onto a surface it may not
+    else:  # beside what is there already: a second can set on the first (a wider deformed one) stays on it
         xy = free_spot(world, arg, (held, owner), xy)
     surface = support_height(world, xy, exclude=(held,))
     return Destination(xy, surface, owner, relation)
@@ -105,7 +105,7 @@ def support_height(world: World, xy: np.ndarray, exclude: tuple[str, ...] = (), 
     """Top of the highest collision geom whose world box covers `xy` (the table if none)."""
     boxes = obstacle_boxes(world, exclude)
     under = np.all(boxes[:, 0, :2] - radius <= xy, axis=1) & np.all(xy <= boxes[:, 1, :2] + radius, axis=1)
-    return max(world.table_z, float(boxes[under, 1, 2].max(initial=world.table_z)))
+    return float(boxes[under, 1, 2].max(initial=world.table_z))
 
 
 def corridor_top(world: World, a: np.ndarray, b: np.ndarray, margin: float, exclude: tuple[str, ...]) -> float:
@@ -116,7 +116,7 @@ def corridor_top(world: World, a: np.ndarray, b: np.ndarray, margin: float, excl
     boxes = obstacle_boxes(world, exclude)
     lo, hi = boxes[:, None, 0, :2] - margin, boxes[:, None, 1, :2] + margin  # (N, 1, 2) against (n, 2)
     near = np.any(np.all((samples >= lo) & (samples <= hi), axis=2), axis=1)
-    return max(world.table_z, float(boxes[near, 1, 2].max(initial=world.table_z)))
+    return float(boxes[near, 1, 2].max(initial=world.table_z))
 
 
 def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()) -> Actions:

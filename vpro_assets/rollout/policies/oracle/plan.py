@@ -19,7 +19,7 @@ from functools import partial
 
 from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push
 from vpro_assets.rollout.policies.oracle.articulation import needs_opening, owner_of
-from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, principal_axes
+from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, narrowest
 from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.world import World
@@ -58,11 +58,9 @@ def _pushable(world: World, obj: str, dest: str) -> bool:
     if dest in [inst for inst, _ in world.task.objects]:
         return False
     pts = world.points(obj)
-    _, minor = principal_axes(pts)
-    proj = pts[:, :2] @ minor[:2]
     height = pts[:, 2].max() - pts[:, 2].min()
     table_region = owner_of(world, dest) not in dict(world.task.fixtures) or "table" in owner_of(world, dest)
-    return table_region and height < PUSH_MAX_HEIGHT_M and proj.max() - proj.min() > MAX_PINCH_M
+    return table_region and height < PUSH_MAX_HEIGHT_M and narrowest(pts)[1] > MAX_PINCH_M
 
 
 def _switch(world: World, fixture: str, on: bool) -> Actions:

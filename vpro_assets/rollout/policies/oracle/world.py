@@ -1,5 +1,6 @@
 """The oracle's privileged view of one simulation: the grip site, the fingers, bodies, geoms,
-sites and joints by LIBERO's names, and world boxes of objects from their collision geoms.
+sites and joints by LIBERO's names, and the extent of objects from their collision geoms (convex
+hulls for what is grasped and carried, boxes for regions and obstacles).
 
 Everything is read from MuJoCo's model and data (`sim.model._model`, `sim.data._data`), never from
 images. A `World` belongs to one sim: robosuite rebuilds the sim on a hard reset, so the policy
@@ -16,10 +17,11 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.core.mjgeom import colliding, geom_corners, world_aabb
+from vpro_assets.core.mjgeom import colliding, world_aabb
 from vpro_assets.libero.env import GRIPPER_PREFIX
 from vpro_assets.libero.tasks import TaskRecord
 from vpro_assets.perturb.entities import GRIP_SITE, Entity, object_entity
+from vpro_assets.perturb.occluders import GeomHulls
 
 ROBOT_PREFIXES = ("robot0_", GRIPPER_PREFIX, "mount0_")
 FINGER_JOINTS = ("gripper0_finger_joint1", "gripper0_finger_joint2")
@@ -56,6 +58,7 @@ class World:
         self.m, self.d = sim.model._model, sim.data._data
         self.grip_site = self._id(mujoco.mjtObj.mjOBJ_SITE, GRIP_SITE)
         self._entities: dict[str, Entity] = {}
+        self._hulls = GeomHulls()
         self.step = 0  # control steps the oracle has acted
         # The table (or floor) top: what the lowest movable object rests on.
         self.table_z = min(float(self.box(inst).lo[2]) for inst, _ in task.objects) if task.objects else 0.0
@@ -111,9 +114,15 @@ class World:
         ent = self.entity(instance)
         return colliding(self.m, ent.geoms) or list(ent.geoms)
 
+    def hulls(self, instance: str) -> list[np.ndarray]:
+        """World points of the convex hull of each of the instance's collision geoms (box corners
+        for primitives)."""
+        return self._hulls.world(self.m, self.d, self.geoms(instance))
+
     def points(self, instance: str) -> np.ndarray:
-        """World corners of the boxes of the instance's collision geoms (N x 3)."""
-        return geom_corners(self.m, self.d, self.geoms(instance))
+        """All of `hulls` stacked (N x 3): the object's actual extent (a deformed can's hull
+        pieces are about 1 cm narrower than their boxes)."""
+        return np.concatenate(self.hulls(instance))
 
     def box(self, instance: str) -> Box:
         return Box(*world_aabb(self.m, self.d, self.geoms(instance)))
