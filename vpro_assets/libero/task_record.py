@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 # LIBERO's problem classes (the `(problem ...)` name selects the scene class).
 PLACEMENT_PREDICATES = ("on", "in")
+# Fixture classes whose regions are places on the table, not receptacles.
+TABLE_CATEGORIES = ("table", "kitchen_table", "living_room_table", "study_table", "floor")
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ from vpro_assets.core.errors import UnknownIdError
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.task_record import (  # noqa: F401 (re-exported)
     PLACEMENT_PREDICATES,
+    TABLE_CATEGORIES,
     Articulation,
     TaskRecord,
     libero_instruction,
@@ -62,7 +63,7 @@ def parse_task(suite: str, index: int, name: str) -> TaskRecord:
         if pred in PLACEMENT_PREDICATES and args[0] in movable:
             target, relation = args[0], pred
             dest, region = _resolve(args[1], instances)
-            table = dict(fixtures).get(dest) in ("table", "kitchen_table", "living_room_table", "study_table", "floor")
+            table = dict(fixtures).get(dest) in TABLE_CATEGORIES
             receptacle = None if table else dest
             region = None if table else region
             relation = None if table else relation

@@ -20,7 +20,7 @@ from vpro_assets.rollout.policies.oracle.clearance import lift_clear, obstacle_b
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
-MAX_PINCH_M = 0.072  # widest object the open fingers (about 8 cm) take across
+MAX_PINCH_M = 0.074  # widest object the open fingers (7.8 cm apart) take across
 WALL_INSET_M = 0.012  # the fingers' centre this far inside an object's outer wall
 MIN_RIM_PINCH_M = 0.012  # a wall pinch less deep than this below the rim does not hold
 WALL_DEPTH_M = 0.035  # a wall is pinched this far below its top (deep: a shallow pinch lets a bowl swing out)
@@ -61,15 +61,20 @@ def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.append(major, 0.0), np.append(minor, 0.0)
 
 
-def narrowest(points: np.ndarray) -> tuple[np.ndarray, float]:
-    """(horizontal unit axis, width) across which a point cloud is narrowest. Swept over 1-degree
-    steps: the principal axes miss it for twisted and tapered shapes, and half a degree off the
-    best direction adds under 0.004% to a width."""
+def widths(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(180 x 3 horizontal unit axes, their widths): a point cloud's extent across each direction
+    in 1-degree steps. Swept rather than taken from the principal axes, which miss the narrowest
+    direction of twisted and tapered shapes; half a degree off it adds under 0.004% to a width."""
     ang = np.radians(np.arange(180))
-    dirs = np.c_[np.cos(ang), np.sin(ang)]
-    widths = np.ptp(points[:, :2] @ dirs.T, axis=0)
-    k = int(np.argmin(widths))
-    return np.append(dirs[k], 0.0), float(widths[k])
+    dirs = np.c_[np.cos(ang), np.sin(ang), np.zeros(180)]
+    return dirs, np.ptp(points[:, :2] @ dirs[:, :2].T, axis=0)
+
+
+def narrowest(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """(horizontal unit axis, width) across which a point cloud is narrowest."""
+    dirs, across = widths(points)
+    k = int(np.argmin(across))
+    return dirs[k], float(across[k])
 
 
 def above(hulls: list[np.ndarray], z: float) -> np.ndarray:
@@ -96,9 +101,9 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     height = hi[2] - lo[2]
     center = np.append((lo[:2] + hi[:2]) / 2, 0.0)
     z = max(hi[2] - float(np.clip(height * 0.5, 0.01, 0.03)), lo[2] + TABLE_CLEARANCE_M)
-    minor, width = narrowest(pts)
-    if width <= MAX_PINCH_M:
-        return Grasp(_middle(pts, minor, z), minor, width, rim=False)
+    whole = _clear_pinch(world, instance, pts, z)
+    if whole is not None:
+        return whole
     handle = handle_grasp(world, instance, pts) if toward is None else outer_part_grasp(world, instance, toward)
     if handle is not None:
         return handle
@@ -173,6 +178,21 @@ def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
     return _pinch_across(part)
 
 
+def _clear_pinch(world: World, instance: str, pts: np.ndarray, z: float) -> Grasp | None:
+    """A pinch of the solid `pts` at height `z`: of the directions it is at most MAX_PINCH_M
+    across, the one where the open hand comes down lowest (its palm is 21 cm long along the
+    closing axis: beside a standing neighbour it turns away from it), the narrowest of equals.
+    None when it is too wide every way."""
+    dirs, across = widths(pts)
+    fit = np.flatnonzero(across <= MAX_PINCH_M)
+    if not len(fit):
+        return None
+    boxes = obstacle_boxes(world, (instance,))
+    points = {int(k): _middle(pts, dirs[k], z) for k in fit}
+    k = min(points, key=lambda k: (round(max(z, reach_height(boxes, points[k], dirs[k])), 3), across[k]))
+    return Grasp(points[k], dirs[k], float(across[k]), rim=False)
+
+
 def _middle(pts: np.ndarray, axis: np.ndarray, z: float) -> np.ndarray:
     """The centre of a point cloud's extent along `axis` and across it, at height `z`."""
     across = np.array([-axis[1], axis[0], 0.0])
@@ -191,11 +211,10 @@ def narrow_top_grasp(world: World, instance: str) -> Grasp | None:
     best = None
     for depth in np.arange(0.004, NARROW_DEPTH_M + 1e-9, 0.002):
         part = above(hulls, top - depth - FINGER_PAD_HALF_M)
-        axis, width = narrowest(part)
-        if width > MAX_PINCH_M:
+        if narrowest(part)[1] > MAX_PINCH_M:
             break
-        best = Grasp(_middle(part, axis, top - depth), axis, width, rim=False)
-    return best
+        best = part, top - depth
+    return None if best is None else _clear_pinch(world, instance, *best)
 
 
 def outer_part_grasp(world: World, instance: str, toward: np.ndarray) -> Grasp | None:

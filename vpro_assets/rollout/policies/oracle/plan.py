@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
+from vpro_assets.libero.task_record import TABLE_CATEGORIES
 from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push
 from vpro_assets.rollout.policies.oracle.articulation import needs_opening, owner_of
 from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, narrowest
@@ -59,7 +60,7 @@ def _pushable(world: World, obj: str, dest: str) -> bool:
         return False
     pts = world.points(obj)
     height = pts[:, 2].max() - pts[:, 2].min()
-    table_region = owner_of(world, dest) not in dict(world.task.fixtures) or "table" in owner_of(world, dest)
+    table_region = dict(world.task.fixtures).get(owner_of(world, dest)) in TABLE_CATEGORIES  # not a basket's
     return table_region and height < PUSH_MAX_HEIGHT_M and narrowest(pts)[1] > MAX_PINCH_M
 
 
