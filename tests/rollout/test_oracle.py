@@ -18,7 +18,8 @@ from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode
 from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob
-from vpro_assets.rollout.policies.oracle.grasp import above, narrowest, pick
+from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
+from vpro_assets.rollout.policies.oracle.grasp import above, narrowest, pick, plan_grasp, reach_height
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.plan import plan
 from vpro_assets.rollout.policies.oracle.policy import OracleController, OraclePolicy, libero_holds
@@ -122,6 +123,22 @@ def test_narrowest_width_of_a_turned_box_and_the_top_of_a_tapered_solid():
     assert narrowest(frustum)[1] == pytest.approx(0.082)
     assert narrowest(above([frustum], 0.07))[1] == pytest.approx(0.054)
     assert len(above([frustum], 0.09)) == 0
+
+
+def test_solid_pinch_turns_the_hand_away_from_a_standing_neighbour(scene):
+    """libero_object-01's cream cheese: closing across its narrowest direction, the open hand (its
+    palm 21 cm long along the closing axis) would stop on a neighbour more than 2 cm above the
+    grasp; the grasp turns until the hand comes down all the way, and the pick lifts it."""
+    s = scene("libero_object-01/normal")
+    obj = "cream_cheese_1"
+    grasp = plan_grasp(s.world, obj)
+    boxes = obstacle_boxes(s.world, (obj,))
+    narrow_axis = narrowest(s.world.points(obj))[0]
+    assert reach_height(boxes, grasp.point, narrow_axis) > grasp.point[2] + 0.02
+    assert reach_height(boxes, grasp.point, grasp.axis) <= grasp.point[2]
+    z0 = s.world.body_pos(obj)[2]
+    s.run(pick(s.world, obj), limit=200)
+    assert s.world.body_pos(obj)[2] - z0 > 0.05 and s.world.held(obj)
 
 
 def test_drawer_opens_past_libero_open_threshold_then_closes_fully_home(scene):
