@@ -60,19 +60,27 @@ def replay(case: dict, trial: int, settings: EpisodeSettings, render: bool, reso
     frames, frame_steps = [], []
     every = max(1, session.limit // (SHEET_FRAMES - 1))
 
-    def snapshot() -> None:
-        sim = session.env.sim
-        if sim._render_context_offscreen is None:  # a render-free env has none: make it on first use
-            # robosuite loads only once LIBERO is configured (its GL backend chosen first)
+    contexts = []
+
+    def on_reset(cenv) -> None:
+        policy.bind_env(cenv)
+        if render:
+            # A render-free env has no context. Making one calls `sim.forward()`: here, right after the
+            # reset's own, it changes nothing; made at the first snapshot after the wait steps it
+            # refreshed the positions the oracle reads, and the replay of libero_spatial-06's trial 5
+            # went elsewhere (solved in 170 steps where the recorded trial failed at 220).
+            # robosuite loads only once LIBERO is configured (its GL backend chosen first).
             from robosuite.utils.binding_utils import MjRenderContextOffscreen
 
-            MjRenderContextOffscreen(sim, device_id=-1)
-        image = sim.render(width=resolution, height=resolution, camera_name=SHEET_CAMERA)  # bottom-up
+            contexts.append(MjRenderContextOffscreen(cenv.sim, device_id=-1))
+
+    def snapshot() -> None:
+        image = session.env.sim.render(width=resolution, height=resolution, camera_name=SHEET_CAMERA)  # bottom-up
         frames.append(np.asarray(image)[::-1].copy())
         frame_steps.append(session.steps)
 
     try:
-        session.start(on_reset=policy.bind_env)
+        session.start(on_reset=on_reset)
         while not session.finished:
             if render and session.steps % every == 0:
                 snapshot()
@@ -97,3 +105,5 @@ def replay(case: dict, trial: int, settings: EpisodeSettings, render: bool, reso
     finally:
         policy.close()
         session.close()
+        for context in contexts:  # while EGL is up: freed at exit, it raised EGL_NOT_INITIALIZED
+            context.gl_ctx.free()

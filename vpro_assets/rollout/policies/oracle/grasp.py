@@ -196,7 +196,8 @@ def _clear_pinch(world: World, instance: str, pts: np.ndarray, z: float) -> Gras
 def _middle(pts: np.ndarray, axis: np.ndarray, z: float) -> np.ndarray:
     """The centre of a point cloud's extent along `axis` and across it, at height `z`."""
     across = np.array([-axis[1], axis[0], 0.0])
-    point = sum(a * (float((pts[:, :2] @ a[:2]).max()) + float((pts[:, :2] @ a[:2]).min())) / 2 for a in (axis, across))
+    along_axis, along_across = pts[:, :2] @ axis[:2], pts[:, :2] @ across[:2]
+    point = axis * (along_axis.max() + along_axis.min()) / 2 + across * (along_across.max() + along_across.min()) / 2
     point[2] = z
     return point
 
