@@ -31,6 +31,7 @@ RELEASE_ABOVE_M = 0.012  # release when the object's bottom is this close to the
 RETREAT_M = 0.10
 CARRY_SPEED = 0.6  # a held object (a bowl pinched at its wall) slips under full-speed jerks
 DRAWER_FRONT_M = 0.03  # a drawer's front panel lies this far behind its handle
+STALL_STEPS, STALL_DROP_M = 8, 0.002  # lowering has stalled when the hand sank less than this in so many steps
 
 
 @dataclass(frozen=True)
@@ -146,11 +147,15 @@ def lower_and_release(world: World, held: str, dest: Destination) -> Actions:
     """Lower until the held object touches something other than the gripper or reaches the surface;
     open and move up."""
     orient = world.eef_mat()
+    heights: list[float] = []
     for _ in range(160):
         box = world.box(held)
         touching = world.touching(held) - {"gripper"}
         if touching or box.lo[2] - dest.surface_z < RELEASE_ABOVE_M:
             break
+        heights.append(float(world.eef()[2]))
+        if len(heights) > STALL_STEPS and heights[-STALL_STEPS - 1] - heights[-1] < STALL_DROP_M:
+            break  # the hand rests on something (a basket's rim under its palm): let go here
         offset = world.eef()[:2] - world.body_pos(held)[:2]
         goal = np.array([*(dest.xy + offset), world.eef()[2] - 0.03])
         yield motion.action_to(world, goal, CLOSE, orient, speed=0.5)
