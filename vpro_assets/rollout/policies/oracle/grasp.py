@@ -3,9 +3,10 @@ pick skill (approach, descend, close, lift, check).
 
 The object's shape is the convex hulls of its collision geoms in the world (deformed, inverted,
 recoloured and look-alike objects alike: nothing is read from the object's name). An object narrow
-enough for the open fingers in some horizontal direction is pinched across the narrowest one; one
-narrow only toward its top (a tapered can) is pinched there; a wider one (bowls, mugs, baskets) by
-its handle or at its wall, the fingers closing radially on the side nearest the robot.
+enough for the open fingers in some horizontal directions is pinched across the one where the open
+hand comes down lowest (turned away from its neighbours); one narrow only toward its top (a tapered
+can) is pinched there; a wider one (bowls, mugs, baskets) by its handle or at its wall, the fingers
+closing radially on the side nearest the robot.
 """
 
 from __future__ import annotations
