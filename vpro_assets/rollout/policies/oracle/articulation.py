@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
@@ -33,6 +34,15 @@ class Joint:
 def owner_of(world: World, arg: str) -> str:
     names = [inst for inst, _ in world.task.objects + world.task.fixtures]
     return max((n for n in names if arg == n or arg.startswith(n + "_")), key=len, default=arg)
+
+
+def is_drawer(world: World, arg: str) -> bool:
+    """Whether `arg` (a region or a fixture) belongs to a fixture with a slide joint: a drawer, pulled
+    out and filled from above."""
+    owner = owner_of(world, arg)
+    return owner in dict(world.task.fixtures) and any(
+        world.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE for j in world.joints_of(owner)
+    )
 
 
 def joint_for(world: World, arg: str) -> Joint:

@@ -14,12 +14,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
-from vpro_assets.rollout.policies.oracle.articulation import owner_of
+from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
 from vpro_assets.rollout.policies.oracle.grasp import HAND_PARTS, pick
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.pick_place import carry
@@ -57,10 +56,8 @@ def covered(world: World, region: str) -> Cavity | None:
     if not world.has_site(region):
         return None
     owner = owner_of(world, region)
-    if owner not in dict(world.task.fixtures) or any(
-        world.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE for j in world.joints_of(owner)
-    ):
-        return None  # a drawer is pulled out and filled from above
+    if owner not in dict(world.task.fixtures) or is_drawer(world, region):
+        return None
     moving = {g for j in world.joints_of(owner) for g in world.joint_geoms(j)}
     boxes = [geom_corners(world.m, world.d, [g]) for g in world.geoms(owner) if g not in moving]
     c = world.site_pos(region)

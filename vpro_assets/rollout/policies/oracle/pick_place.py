@@ -14,11 +14,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from vpro_assets.rollout.policies.oracle import motion
-from vpro_assets.rollout.policies.oracle.articulation import joint_for, owner_of
+from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
 from vpro_assets.rollout.policies.oracle.grasp import pick
@@ -57,7 +56,7 @@ def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
     owner = max((i for i in instances if arg.startswith(i + "_")), key=len, default=arg)
     center = world.site_pos(arg)
     xy = center[:2].copy()
-    if relation == "in" and _drawer_region(world, arg):
+    if relation == "in" and is_drawer(world, arg):
         # Into an open drawer: just behind its front panel, where the drawer is out of the cabinet.
         joint = joint_for(world, arg)
         axis = open_direction(world, joint)
@@ -93,13 +92,6 @@ def free_spot(world: World, region: str, skip: tuple[str, str], center: np.ndarr
     if fits:
         return min(fits, key=lambda p: float(np.linalg.norm(p - center)))
     return max(grid, key=clearance)
-
-
-def _drawer_region(world: World, arg: str) -> bool:
-    owner = owner_of(world, arg)
-    return owner in dict(world.task.fixtures) and any(
-        world.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE for j in world.joints_of(owner)
-    )
 
 
 def support_height(world: World, xy: np.ndarray, exclude: tuple[str, ...] = (), radius: float = 0.02) -> float:
