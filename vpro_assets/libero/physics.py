@@ -1,6 +1,7 @@
-"""Render-free LIBERO envs: the physics of a scene without a renderer, camera observations or
-repeated model compiles. One mechanism for everything that needs no pixel: the scene build (base
-scene, variant env, settling), `vpro validate` and render-free episodes (`vpro eval --no-render`).
+"""LIBERO envs at the least physics cost: without a renderer, camera observations or repeated
+model compiles where no pixel is needed (the scene build's base scene, variant env and settling,
+`vpro validate`, render-free episodes: `vpro eval --no-render`, `vpro certify`), and every env's
+control step without robosuite's repeated forward passes.
 
 - `physics_env(bddl_file, **kwargs)`: LIBERO's `ControlEnv` without offscreen renderer or camera
   observations. robosuite's `reset()` is a hard reset: it rebuilds the MJCF and compiles it again
@@ -10,12 +11,17 @@ scene, variant env, settling), `vpro validate` and render-free episodes (`vpro e
   and the fixture placement LIBERO writes into the model at each reset lands on a fresh copy,
   exactly as on a fresh compile. The same BDDL gives the same MJCF, so the trials of a case and
   the reset after construction reuse one compile.
-- `physics_step(env, action)`: robosuite's control step (`MujocoEnv.step`) for the physics only:
-  the same mj_forward, controller calls and mj_step in the same order, without what only an
-  observer reads (observables updated at every substep, observations, reward and success).
-  robosuite's mj_forward before the controller looks redundant (the controller's update runs it
-  again on the same state) but is kept: without it, MuJoCo 3.2.3 ends a settle 1e-16 away on a
-  model copied from the cache (3.8.1 does not), and a state must not depend on the path.
+- Split substeps: robosuite's control step runs, in each of its 25 substeps, mj_forward, the
+  controllers (whose `update` runs mj_forward again) and mj_step (a third forward inside): MuJoCo's
+  position and velocity stages three times on the same state. The controllers read only those
+  stages (site poses, Jacobians, mass matrix, bias forces), so here each substep is MuJoCo's split
+  step: mj_step1 (position and velocity stages), the controllers with their mj_forward skipped,
+  mj_step2 (actuation, acceleration, constraints, Euler integration). Same state, observations,
+  reward and success, bit for bit (tests/libero/test_physics.py), at about half the step's cost.
+  Every env built here steps that way (`control_step`, in place of LIBERO's and robosuite's `step`).
+- `physics_step(env, action)`: the same control step for the physics only, without what only an
+  observer reads (observables updated at every substep, observations, reward and success): settling
+  and drift checks.
 - `reference()`: a context in which both are off (every reset compiles, every step is robosuite's
   own), the path tests and `vpro bench build` compare against.
 
@@ -29,6 +35,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import functools
 import hashlib
 import importlib
 import logging
@@ -38,6 +45,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import mujoco
+import numpy as np
 
 from vpro_assets.libero import bridge as libero_bridge
 
@@ -83,9 +91,10 @@ def fast() -> bool:
 
 @contextlib.contextmanager
 def metered() -> Iterator[None]:
-    """Count the seconds of every mj_step and mj_forward (robosuite's, the controller's, ours) in
-    `COUNTERS.mj_seconds` inside the block (`vpro bench build`; a timer call per MuJoCo call)."""
-    real = {name: getattr(mujoco, name) for name in ("mj_step", "mj_forward")}
+    """Count the seconds of every mj_step, mj_step1, mj_step2 and mj_forward (robosuite's, the
+    controller's, ours) in `COUNTERS.mj_seconds` inside the block (`vpro bench build`; a timer call
+    per MuJoCo call)."""
+    real = {name: getattr(mujoco, name) for name in ("mj_step", "mj_step1", "mj_step2", "mj_forward")}
 
     def timed(fn):
         def call(*args):
@@ -170,7 +179,66 @@ def physics_env(bddl_file: str, fresh: bool = False, **kwargs):
             initialize(xml_string)
 
     inner._initialize_sim = initialize_sim  # robosuite's own code, its compile through the cache
+    return split_steps(env)
+
+
+def split_steps(env):
+    """Make a LIBERO env (the wrapper) step with split substeps (`control_step`); returns it."""
+    inner = getattr(env, "env", env)
+    if type(inner).step is not _libero_step():
+        raise TypeError(
+            f"{type(inner).__name__} has a step of its own; split substeps mirror LIBERO's BDDLBaseDomain.step"
+        )
+    inner.step = functools.partial(control_step, inner)
     return env
+
+
+def _libero_step():
+    return importlib.import_module("libero.libero.envs.bddl_base_domain").BDDLBaseDomain.step
+
+
+def _forward_done() -> None:
+    """Stands in for `MjSim.forward` while the controllers run: mj_step1 has just computed it."""
+
+
+def _substeps(inner, action, observe: bool) -> None:
+    """robosuite's substep loop (`MujocoEnv.step`) with MuJoCo's split step (module docstring);
+    `observe`: robosuite's observables updated after each substep, as its loop does."""
+    sim = inner.sim
+    model, data = sim.model._model, sim.data._data
+    policy_step = True
+    for _ in range(int(inner.control_timestep / inner.model_timestep)):
+        mujoco.mj_step1(model, data)
+        sim.forward = _forward_done
+        try:
+            inner._pre_action(action, policy_step)
+        finally:
+            del sim.forward  # MjSim's own method again
+        mujoco.mj_step2(model, data)
+        if observe:
+            inner._update_observables()
+        policy_step = False
+
+
+def control_step(inner, action):
+    """LIBERO's env step (`BDDLBaseDomain.step` around robosuite 1.4's `MujocoEnv.step`, line for
+    line) with split substeps; robosuite's own inside `reference()`. Written out because the
+    substep loop sits inside robosuite's `step` with nothing to hook into."""
+    if not _FAST[0]:
+        return _libero_step()(inner, action)
+    if inner.action_dim == 4 and len(action) > 4:  # LIBERO: an OSC_POSE action for an OSC_POSITION arm
+        action = np.array(action)
+        action = np.concatenate((action[:3], action[-1:]), axis=-1)
+    if inner.done:
+        raise ValueError("executing action in terminated episode")
+    inner.timestep += 1
+    _substeps(inner, action, observe=True)
+    inner.cur_time += inner.control_timestep
+    reward, _done, info = inner._post_action(action)
+    if inner.viewer is not None and inner.renderer != "mujoco":
+        inner.viewer.update()
+    observations = inner.viewer._get_observations() if inner.viewer_get_obs else inner._get_observations()
+    return observations, reward, inner._check_success(), info
 
 
 def physics_step(env, action) -> None:
@@ -178,15 +246,9 @@ def physics_step(env, action) -> None:
     (module docstring); robosuite's own `step` inside `reference()`."""
     inner = getattr(env, "env", env)
     if not _FAST[0]:
-        inner.step(action)
+        _libero_step()(inner, action)
         return
-    model, data = inner.sim.model._model, inner.sim.data._data
     inner.timestep += 1
-    policy_step = True
-    for _ in range(int(inner.control_timestep / inner.model_timestep)):
-        mujoco.mj_forward(model, data)
-        inner._pre_action(action, policy_step)
-        mujoco.mj_step(model, data)
-        policy_step = False
+    _substeps(inner, action, observe=False)
     inner.cur_time += inner.control_timestep
     inner._post_process()  # LIBERO's object states (a stove turned on), as its _post_action does
