@@ -16,8 +16,10 @@ control step without robosuite's repeated forward passes.
   position and velocity stages three times on the same state. The controllers read only those
   stages (site poses, Jacobians, mass matrix, bias forces), so here each substep is MuJoCo's split
   step: mj_step1 (position and velocity stages), the controllers with their mj_forward skipped,
-  mj_step2 (actuation, acceleration, constraints, Euler integration). Same state, observations,
-  reward and success, bit for bit (tests/libero/test_physics.py), at about half the step's cost.
+  mj_step2 (actuation, acceleration, constraints, Euler integration); between policy steps the arm
+  control runs without robosuite's per-call lookups (`arm_control`). Same state, observations,
+  reward and success, bit for bit (tests/libero/test_physics.py), at about a third of the step's
+  cost.
   Every env built here steps that way (`control_step`, in place of LIBERO's and robosuite's `step`).
 - `physics_step(env, action)`: the same control step for the physics only, without what only an
   observer reads (observables updated at every substep, observations, reward and success): settling
@@ -47,6 +49,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from vpro_assets.libero import arm_control
 from vpro_assets.libero import bridge as libero_bridge
 
 log = logging.getLogger(__name__)
@@ -206,18 +209,20 @@ def _substeps(inner, action, observe: bool) -> None:
     `observe`: robosuite's observables updated after each substep, as its loop does."""
     sim = inner.sim
     model, data = sim.model._model, sim.data._data
-    policy_step = True
-    for _ in range(int(inner.control_timestep / inner.model_timestep)):
+    arms = arm_control.Arms.of(inner)
+    for substep in range(int(inner.control_timestep / inner.model_timestep)):
         mujoco.mj_step1(model, data)
-        sim.forward = _forward_done
-        try:
-            inner._pre_action(action, policy_step)
-        finally:
-            del sim.forward  # MjSim's own method again
+        if substep and arms is not None:
+            arms.control(action)  # between policy steps: robosuite's arm control, its lookups kept
+        else:
+            sim.forward = _forward_done
+            try:
+                inner._pre_action(action, substep == 0)
+            finally:
+                del sim.forward  # MjSim's own method again
         mujoco.mj_step2(model, data)
         if observe:
             inner._update_observables()
-        policy_step = False
 
 
 def control_step(inner, action):
