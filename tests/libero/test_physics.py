@@ -7,10 +7,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from vpro_assets.benchmark import certificate
+from vpro_assets.benchmark.catalog import find_case, load_catalog
+from vpro_assets.core import paths
 from vpro_assets.libero import physics
 from vpro_assets.libero.env import libero_init_states, make_env
 from vpro_assets.libero.settled import seeded_reset
 from vpro_assets.libero.tasks import get_task
+from vpro_assets.rollout.episode import EpisodeSettings, run_episode
+from vpro_assets.rollout.policies.oracle.policy import OraclePolicy
 
 
 def _actions(steps: int) -> np.ndarray:
@@ -51,3 +56,14 @@ def test_split_substeps_step_as_robosuite_bit_for_bit(task_key, render, steps):
         assert ref[0] == got[0], f"{task_key}: state differs after step {step}"
         assert ref[1] == got[1], f"{task_key}: observations differ after step {step}"
         assert ref[2:] == got[2:], f"{task_key}: reward or success differs after step {step}"
+
+
+def test_a_certified_trial_ends_in_its_recorded_final_state():
+    """The committed certificate's trial 1 of libero_spatial-00 (recorded with robosuite's own step,
+    on another machine's CPU) replays with split substeps to the same steps and final-state
+    fingerprint: the oracle's whole closed loop, not only a scripted one."""
+    recorded = certificate.load()["cases"]["libero_spatial-00/normal"]
+    k = recorded["trial_ids"].index(1)
+    case = find_case(load_catalog(paths.catalog_path()), "libero_spatial-00/normal")
+    row = run_episode(case, 1, OraclePolicy(), EpisodeSettings(render=False))
+    assert (row["steps"], row["final_state"]) == (recorded["steps"][k], recorded["final_state"][k])
