@@ -23,7 +23,7 @@ from vpro_assets.rollout.policies.oracle.grasp import above, narrowest, pick, pl
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.plan import plan
 from vpro_assets.rollout.policies.oracle.policy import OracleController, OraclePolicy, libero_holds
-from vpro_assets.rollout.policies.oracle.world import World
+from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES, NoopPolicy
 
 CATALOG = load_catalog(paths.catalog_path())
@@ -152,6 +152,41 @@ def test_drawer_opens_past_libero_open_threshold_then_closes_fully_home(scene):
     s.run(drawer.close(s.world, region), limit=300)
     assert s.world.qpos(joint) > 0.0  # LIBERO: closed above 0
     assert s.holds(("close", region))
+
+
+def _shut(s: Scene, joint: int, q: float) -> None:
+    """Set a drawer's joint (a closed start, as the precondition cases give it) and settle."""
+    s.cenv.sim.data.qpos[s.world.m.jnt_qposadr[joint]] = q
+    s.cenv.sim.forward()
+    for _ in range(5):
+        s.cenv.step(NOOP_ACTION)
+
+
+def test_low_drawer_opens_by_dragging_its_handle_past_libero_open_threshold(scene):
+    """libero_10-03's bottom drawer, shut: its handle is 4.6 cm over the table, so a pinch closing
+    vertically would put the palm (21 cm along the closing axis) on the table. The closed
+    fingertips press on the handle's top and drag it out instead, the palm clear of the table."""
+    s = scene("libero_10-03/normal")  # the drawer starts open; shut it (LIBERO: closed above 0)
+    region = "white_cabinet_1_bottom_region"
+    joint = s.world.joint("white_cabinet_1_bottom_level")
+    _shut(s, joint, 0.001)
+    j = drawer.joint_for(s.world, region)
+    assert s.holds(("close", region)) and not drawer.pinch_fits(s.world, j)
+    steps = s.run(drawer.open_(s.world, region), limit=160)
+    assert s.world.qpos(joint) < -0.14, steps  # LIBERO's WhiteCabinet: open below -0.14
+    assert s.holds(("open", region))
+
+
+def test_jammed_drawer_fails_fast(scene):
+    """Shut at 4.5 mm (inside LIBERO's closed range, 0 to 5 mm), the bottom drawer's front is wedged
+    under the cabinet's base plate and does not move: the skill says so instead of pressing on."""
+    s = scene("libero_10-03/normal")
+    region = "white_cabinet_1_bottom_region"
+    joint = s.world.joint("white_cabinet_1_bottom_level")
+    _shut(s, joint, 0.0045)
+    with pytest.raises(SkillFailed, match="did not open"):
+        s.run(drawer.open_(s.world, region), limit=400)  # two attempts, about 170 steps each
+    assert s.world.qpos(joint) > 0.004
 
 
 def test_door_closes_the_microwave(scene):

@@ -5,12 +5,17 @@ Opening: the handle is the part of the drawer that sticks out farthest along the
 drawer (pointing against the opening direction, fingers closing vertically) in front of the handle,
 moves onto it, closes on it and pulls along the axis until LIBERO's `Open` check holds. Facing the
 drawer matters: the handles of a cabinet's drawers stand one above the other, so a hand coming down
-from above meets the handle over the one it wants. Closing: the closed fingers, facing the drawer
-the same way but closing horizontally (the hand's long side then stays off the table in front of a
-bottom drawer) and the hand leaning down over the handle (its wrist above whatever stands in front
-of the drawer), push on the handle along the axis until LIBERO's `Close` check holds (the cabinets
-count as closed only once pushed fully home, where a hand pointing down would hit the handles
-above).
+from above meets the handle over the one it wants. A handle lower over the table than half the
+palm's length (libero_10-03's bottom drawer, 4.6 cm: the palm is 21 cm along the closing axis, so
+a vertical pinch puts it on the table) is dragged instead: the closed fingertips, the hand leaning
+down as for closing (its palm then under the handle above and clear of the table), press on the
+handle's top and drag it along the axis. Neither a hook nor a horizontal pinch fits there: the
+fingers (1.6 cm across) are as thick as the gap behind the bar, and the bar (8.9 cm) is longer than
+the open fingers' 7.8 cm. Closing: the closed fingers, facing the drawer the same way but closing
+horizontally (the hand's long side then stays off the table in front of a bottom drawer) and the
+hand leaning down over the handle (its wrist above whatever stands in front of the drawer), push on
+the handle along the axis until LIBERO's `Close` check holds (the cabinets count as closed only
+once pushed fully home, where a hand pointing down would hit the handles above).
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ import numpy as np
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import Joint, joint_for
+from vpro_assets.rollout.policies.oracle.grasp import HAND_PARTS
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
@@ -31,6 +37,14 @@ ABOVE_M = 0.06
 # Closing, the hand leans this far below horizontal over the handle: its wrist then stays above what
 # stands in front of a bottom drawer (libero_10-03's wine rack stopped a level wrist in 6 of 10 trials).
 CLOSE_TILT_RAD = 0.8
+PALM_HALF_M = HAND_PARTS[2][1]  # half the palm's length along the closing axis
+FINGERTIP_M = 0.012  # the closed fingertips reach this far past the grip site
+PRESS_M = 0.03  # dragging, the grip site's goal this far below where it is: the fingertips press on the handle
+PRESS_STEPS = 6
+DRAG_STEP_M = 0.005  # dragging, the grip site's goal this far ahead of it along the axis
+BACK_M = 0.003  # the fingertips this far behind the middle of the handle's top
+SLIP_M = 0.03  # the hand moved this much farther than the drawer: it slid off the handle
+STALL_STEPS, STALL_M = 20, 0.002  # a drawer dragged this long that moved less than this is stuck
 
 
 def open_direction(world: World, joint: Joint) -> np.ndarray:
@@ -38,15 +52,27 @@ def open_direction(world: World, joint: Joint) -> np.ndarray:
     return world.d.xaxis[joint.id] * joint.open_sign
 
 
-def handle_point(world: World, joint: Joint) -> np.ndarray:
-    """Centre of the handle: the drawer's collision geoms that stick out farthest along the axis."""
+def handle_box(world: World, joint: Joint) -> tuple[np.ndarray, np.ndarray]:
+    """World box of the handle: the drawer's collision geoms that stick out farthest along the axis."""
     axis = open_direction(world, joint)
     geoms = world.joint_geoms(joint.id)
     reach = {g: float((geom_corners(world.m, world.d, [g]) @ axis).max()) for g in geoms}
     front = max(reach.values())
     handle = [g for g, r in reach.items() if r > front - HANDLE_DEPTH_M]
     pts = geom_corners(world.m, world.d, handle)
-    return (pts.min(0) + pts.max(0)) / 2
+    return pts.min(0), pts.max(0)
+
+
+def handle_point(world: World, joint: Joint) -> np.ndarray:
+    """Centre of the handle."""
+    lo, hi = handle_box(world, joint)
+    return (lo + hi) / 2
+
+
+def pinch_fits(world: World, joint: Joint) -> bool:
+    """Whether the hand can pinch the handle with its fingers closing vertically: the palm, as long
+    as the closing axis, then reaches below the handle by half its length."""
+    return float(handle_point(world, joint)[2]) - PALM_HALF_M > world.table_z
 
 
 def face_handle(
@@ -81,6 +107,9 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
     for _ in range(attempts):
         if world.holds(goal):
             return
+        if not pinch_fits(world, joint):
+            yield from drag(world, joint, goal)
+            continue
         axis = open_direction(world, joint)
         orient = yield from face_handle(world, joint, OPEN, 0.0, vertical=True)
         yield from motion.gripper(world, CLOSE, orient=orient)
@@ -94,6 +123,37 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
         yield from leave(world, joint, OPEN)
     if not world.holds(goal):
         raise SkillFailed(f"{region} did not open (joint at {world.qpos(joint.id):.3f})")
+
+
+def drag(world: World, joint: Joint, goal: tuple[str, str]) -> Actions:
+    """Open a low drawer by friction: the closed fingertips, the hand leaning down over the handle as
+    for closing, press on the handle's top and drag it along the axis."""
+    axis = open_direction(world, joint)
+    lo, hi = handle_box(world, joint)
+    top = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, hi[2]])
+    approach = -axis * np.cos(CLOSE_TILT_RAD) - np.array([0.0, 0.0, np.sin(CLOSE_TILT_RAD)])
+    orient = motion.facing(approach, np.cross(axis, [0.0, 0.0, 1.0]), world.eef_mat())
+    touch = top - axis * BACK_M - approach * FINGERTIP_M + [0, 0, 0.004]
+    yield from motion.move_to(world, touch + axis * FRONT_M + [0, 0, ABOVE_M], CLOSE, None, tol=0.015, max_steps=120)
+    yield from motion.move_to(world, touch - approach * 0.05, CLOSE, orient, tol=0.012, max_steps=120)
+    yield from motion.move_to(world, touch, CLOSE, orient, tol=0.008, max_steps=60, speed=0.5)
+    press = np.array([0.0, 0.0, -PRESS_M])
+    for _ in range(PRESS_STEPS):
+        yield motion.action_to(world, touch + press, CLOSE, orient)
+    q0, start = world.qpos(joint.id), touch + press
+    travel = abs(joint.open_end - q0)
+    for k in range(PULL_STEPS):
+        if world.holds(goal):
+            break
+        moved = abs(world.qpos(joint.id) - q0)
+        if float((world.eef() - touch) @ axis) - moved > SLIP_M or (k >= STALL_STEPS and moved < STALL_M):
+            break  # slid off the handle, or the drawer does not move
+        yield motion.action_to(world, start + axis * min(DRAG_STEP_M * (k + 1), travel + 0.02), CLOSE, orient)
+    # Up first (behind the hand, the wrist is over what stands in front of the drawer), then turn down.
+    up = world.eef() + [0, 0, ABOVE_M]
+    yield from motion.move_to(world, up, CLOSE, orient, tol=0.02, max_steps=40)
+    down = motion.facing([0.0, 0.0, -1.0], np.cross(axis, [0.0, 0.0, 1.0]), world.eef_mat())
+    yield from motion.move_to(world, up, CLOSE, down, tol=0.02, max_steps=60)
 
 
 def close(world: World, region: str) -> Actions:
