@@ -108,3 +108,28 @@ def test_a_mug_in_the_sweep_of_a_door_set_ajar_is_slid_out_of_it(tmp_path):
     assert deepest < 0.005, deepest
     assert np.linalg.norm(qpos[:2] - ctx.base.layouts[trial][mug]["pos"][:2]) < 0.06
     assert not moving
+
+
+def test_a_drawer_set_closed_never_starts_jammed_in_its_cabinet(tmp_path):
+    """libero_10-03's bottom drawer set closed (precondition receptacle openness): v1 drew trials
+    1, 5, 6 and 7 between 2.5 and 4.5 mm into LIBERO's closed range, where the drawer front cuts
+    into the cabinet's base plate and MuJoCo holds it with kilonewtons (a 5 kN pull did not move it).
+    Every trial must start closed (LIBERO's own test), free of its cabinet, and move under a gentle
+    push; and the push finds a drawer set 4 mm in jammed."""
+    from vpro_assets.scene import init_gen, sim
+
+    cid = "libero_10-03/task_precondition_variation/receptacle_openness-v1"
+    with variant_env(cid, tmp_path) as (ctx, v, env):
+        (joint,) = v.joints
+        cabinet = ctx.base.object_classes["white_cabinet_1"]
+        for trial in (1, 5):
+            start_trial(env, ctx, v, trial)
+            state = sim.flattened_state(env)
+            q = float(sim.raw(env).sim.data.get_joint_qpos(joint.joint))
+            assert cabinet.is_close(q) and q < 0.002, (trial, q)
+            assert init_gen.jammed_parts(env, v, state) == []
+        sim.raw(env).sim.data.set_joint_qpos(joint.joint, 0.004)
+        sim.raw(env).sim.forward()
+        assert init_gen.jammed_parts(env, v, sim.flattened_state(env)) == [
+            f"{joint.joint} is jammed (moved 0.00 mm under 20 N or N m)"
+        ]

@@ -6,7 +6,8 @@ LIBERO's own state k is unsound (an object falls off the table in one second of 
 libero_10-00 row 2 under MuJoCo 3.8.1; none under the pinned 3.3.7), the next sound row after the
 first 10 is used instead and meta.json lists the rows (`BaseScene.trial_rows`). The
 generator's placements and joint settings are then applied with the random stream
-`seeding.rng(case_id, k, "scene-init-<attempt>")`, every moved object is lowered onto its support,
+`seeding.rng(case_id, k, "scene-init-<attempt>")` (a joint value is drawn again while its part cuts
+into the rest of its own fixture), every moved object is lowered onto its support,
 and the scene is settled for one second of zero actions (up to EXTRA_SETTLE more while an object
 still moves, e.g. a deformed target rocking on an uneven base). The state is accepted only if
 - every movable object rests (speed below 2 cm/s and 0.5 rad/s),
@@ -15,7 +16,11 @@ still moves, e.g. a deformed target rocking on an uneven base). The state is acc
   left the table),
 - the task's goal is not already satisfied, and
 - one more second of zero actions from the stored state moves no object more than 1 cm (the
-  check `vpro validate` repeats).
+  check `vpro validate` repeats), and
+- every part the variant's joints set moves when pushed gently toward the middle of its range
+  (`jammed_parts`: a drawer drawn a few millimetres into LIBERO's closed range can run under its
+  cabinet's base plate, where MuJoCo holds the overlap with kilonewtons: libero_10-03's bottom
+  drawer, which no policy could then open).
 A rejected draw is redrawn (next attempt) up to MAX_ATTEMPTS times; then InitStateError names the
 case, the trial and the reasons. An object that keeps its LIBERO place first keeps LIBERO's height;
 from the second attempt on it is lowered onto whatever is below it instead: LIBERO's rows hold some
@@ -39,12 +44,17 @@ from vpro_assets.core.errors import VProError
 from vpro_assets.core.mjgeom import quat_mul
 from vpro_assets.scene import sim
 from vpro_assets.scene.pose import INVERT, class_quat
-from vpro_assets.scene.variant import Placement, SceneVariant
+from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
 
 log = logging.getLogger(__name__)
 
 MAX_ATTEMPTS = 6
 EXTRA_SETTLE = 3  # seconds of further settling for objects still moving after the first
+# A part set by the variant must move under a gentle push (what a gripper can do many times over).
+PROBE_FORCE = 20.0  # N on a slide joint, N m on a hinge
+PROBE_STEPS = 10  # control steps: half a second
+PROBE_SLIDE_M, PROBE_HINGE_RAD = 0.002, 0.035
+CUT_TOL_M = 0.0001  # a part may touch its fixture; deeper than this it cuts into it
 MAX_DRAWS = 200  # position draws per placement and attempt
 SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
 SUPPORT_TOL = 0.005  # m: a body whose top is at most this far above an object's bottom supports it
@@ -199,6 +209,38 @@ def _clear_of_set_parts(env, variant: SceneVariant, margin: float = 0.003, round
         raw.sim.forward()
 
 
+def _draw_joint(env, js: JointSetting, rng: np.random.Generator) -> None:
+    """Set a part's joint to a value drawn from [low, high], drawn again while the part cuts into
+    the rest of its own fixture: LIBERO's closed range of its cabinets reaches 5 mm in, and from
+    2 mm on the white cabinet's drawer fronts run into its base and top plates, where MuJoCo holds
+    them with kilonewtons (libero_10-03's bottom drawer: no gripper could open it). The first draw
+    is the stream's first number, as before, so a part that is free keeps its value."""
+    raw = sim.raw(env)
+    model, data = raw.sim.model._model, raw.sim.data._data
+    part = int(model.jnt_bodyid[raw.sim.model.joint_name2id(js.joint)])
+    moving = {b for b in range(model.nbody) if b == part or _has_ancestor(model, b, part)}
+    fixture = int(model.body_rootid[part])
+    for _ in range(MAX_DRAWS):
+        raw.sim.data.set_joint_qpos(js.joint, rng.uniform(js.low, js.high))
+        mujoco.mj_forward(model, data)
+        if not any(_cuts(model, data.contact[i], moving, fixture) for i in range(data.ncon)):
+            return
+    raise InitStateError(
+        f"{js.joint} cuts into its own fixture at each of {MAX_DRAWS} values drawn from [{js.low}, {js.high}]"
+    )
+
+
+def _cuts(model, contact, moving: set[int], fixture: int) -> bool:
+    """Whether a contact is a part (`moving` bodies) cutting into the rest of its fixture."""
+    if contact.dist >= -CUT_TOL_M:
+        return False
+    b1, b2 = int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])
+    for inside, other in ((b1, b2), (b2, b1)):
+        if inside in moving and other not in moving and int(model.body_rootid[other]) == fixture:
+            return True
+    return False
+
+
 def _has_ancestor(m, body: int, ancestor: int) -> bool:
     while body > 0:
         body = int(m.body_parentid[body])
@@ -285,6 +327,30 @@ def drift(env, steps: int = sim.SETTLE_STEPS) -> list[str]:
     return out
 
 
+def jammed_parts(env, variant: SceneVariant, state: np.ndarray) -> list[str]:
+    """The parts set by the variant's joints that do not move, from `state`, under a gentle force
+    (PROBE_FORCE on the joint toward the middle of its range, PROBE_STEPS zero-action steps)."""
+    raw = sim.raw(env)
+    model, data = raw.sim.model._model, raw.sim.data._data
+    out = []
+    for js in variant.joints:
+        joint = raw.sim.model.joint_name2id(js.joint)
+        dof, adr = int(model.jnt_dofadr[joint]), int(model.jnt_qposadr[joint])
+        slide = model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_SLIDE
+        sim.load_state(env, state)
+        start = float(data.qpos[adr])
+        lo, hi = model.jnt_range[joint]
+        data.qfrc_applied[dof] = PROBE_FORCE if (lo + hi) / 2 > start else -PROBE_FORCE
+        sim.settle(env, PROBE_STEPS)
+        data.qfrc_applied[dof] = 0.0
+        moved = abs(float(data.qpos[adr]) - start)
+        if moved < (PROBE_SLIDE_M if slide else PROBE_HINGE_RAD):
+            unit, scale = ("mm", 1000) if slide else ("mrad", 1000)
+            out.append(f"{js.joint} is jammed (moved {moved * scale:.2f} {unit} under {PROBE_FORCE:g} N or N m)")
+    sim.load_state(env, state)
+    return out
+
+
 def trial_state(
     env,
     variant: SceneVariant,
@@ -305,10 +371,10 @@ def trial_state(
         row = sim.map_state(base_row, base_slots, env)
         sim.load_state(env, row)
         raw = sim.raw(env)
-        for js in variant.joints:
-            raw.sim.data.set_joint_qpos(js.joint, rng.uniform(js.low, js.high))
-        raw.sim.forward()
         try:
+            for js in variant.joints:
+                _draw_joint(env, js, rng)
+            raw.sim.forward()
             _place(env, variant, rng, added, base_layout or {}, onto_support=attempt > 0)
         except InitStateError as exc:
             reasons.append(f"attempt {attempt}: {exc}")
@@ -327,6 +393,8 @@ def trial_state(
             state = sim.flattened_state(env)
             sim.load_state(env, state)
             problems = [f"after storing: {p}" for p in drift(env)]
+            if not problems:
+                problems = jammed_parts(env, variant, state)
             if not problems:
                 return state
         reasons.append(f"attempt {attempt}: " + "; ".join(problems[:4]))
