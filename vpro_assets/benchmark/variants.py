@@ -38,7 +38,8 @@ class Variant:
 BASE_TEXT = {
     "task_precondition_variation/receptacle_openness": "The drawer or door the task involves (the receptacle the "
     "target goes into, else the drawer the goal opens or closes, else the top drawer of the cabinet the target "
-    "goes on) starts in its other end state, drawn from LIBERO's own open or closed range.",
+    "goes on) starts in its other end state, drawn from LIBERO's own open or closed range where the part does not cut "
+    "into its fixture (and moves under a gentle push).",
     "task_precondition_variation/object_pose": "The target starts upside down at its LIBERO place.",
     "visual_state_ambiguity/receptacle_openness": "A visual-only copy of the drawer or door the task involves shows "
     "it in its other end state over the real one.",

@@ -37,11 +37,11 @@ from __future__ import annotations
 
 import contextlib
 import copy
-import functools
 import hashlib
 import importlib
 import logging
 import time
+import weakref
 from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -192,7 +192,12 @@ def split_steps(env):
         raise TypeError(
             f"{type(inner).__name__} has a step of its own; split substeps mirror LIBERO's BDDLBaseDomain.step"
         )
-    inner.step = functools.partial(control_step, inner)
+    env_ref = weakref.ref(inner)  # no reference cycle: the env and its ~200 MB model go when unused
+
+    def step(action):
+        return control_step(env_ref(), action)
+
+    inner.step = step
     return env
 
 
