@@ -23,6 +23,7 @@ from vpro_assets.rollout.policies.oracle.grasp import above, narrowest, pick, pl
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.plan import plan
 from vpro_assets.rollout.policies.oracle.policy import OracleController, OraclePolicy, libero_holds
+from vpro_assets.rollout.policies.oracle.sweep import is_out, under_sweep
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 from vpro_assets.rollout.policies.reference import REFERENCE_POLICIES, NoopPolicy
 
@@ -276,6 +277,28 @@ def test_plan_orders_skills_from_goal_and_state(scene):
         "cavity(in white_yellow_mug_1 microwave_1_heating_region)",
         "door(close microwave_1)",
     ]
+
+
+def test_plan_closes_a_drawer_out_over_the_object_to_move_when_the_goal_does_not_need_it(scene):
+    """libero_goal-04 ("put the bowl on top of the cabinet") with the top drawer out as its
+    receptacle-openness case starts it (joint at -0.153): the drawer's sweep covers the bowl's
+    footprint, 10 cm over its rim, so it is closed first. A drawer the bowl stands in is not
+    (libero_spatial-04), nor one the goal fills (libero_10-03, test_plan_orders_skills_from_goal_and_state)."""
+    s = scene("libero_goal-04/normal")
+    goal = OracleController(s.cenv.env, s.cenv.task).goal
+    assert [str(st) for st in plan(s.world, goal, s.holds)] == [
+        "pick_place(on akita_black_bowl_1 wooden_cabinet_1_top_side)"
+    ]
+    _shut(s, s.world.joint("wooden_cabinet_1_top_level"), -0.153)
+    joint = drawer.joint_for(s.world, "wooden_cabinet_1_top_region")
+    assert is_out(s.world, joint) and under_sweep(s.world, joint, "akita_black_bowl_1")
+    assert [str(st) for st in plan(s.world, goal, s.holds)] == [
+        "drawer(close wooden_cabinet_1_top_region)",
+        "pick_place(on akita_black_bowl_1 wooden_cabinet_1_top_side)",
+    ]
+    s = scene("libero_spatial-04/normal")  # the bowl stands in the open top drawer
+    goal = OracleController(s.cenv.env, s.cenv.task).goal
+    assert [st.skill for st in plan(s.world, goal, s.holds)] == ["pick_place"]
 
 
 def test_oracle_is_the_eval_oracle_and_runs_render_free():

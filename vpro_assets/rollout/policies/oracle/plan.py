@@ -7,6 +7,9 @@ predicate functions, so a predicate that already holds gets no skill. The order:
 2. open what the goal asks open, and every closed drawer or door something must go *into*;
 3. placements (`On`, `In`), in the goal's order;
 4. close what the goal asks closed (after whatever goes inside).
+Before 2, a drawer out over an object still to be moved (`sweep`: the box its geoms pass through
+between closed and open covers the object's footprint) is closed if the goal does not need it open
+(neither asked open nor filled): the open drawer stops the hand coming down on the object.
 A flat object too wide to pinch that must go onto a table region is pushed there; an object that
 must go into a covered cavity (the microwave) goes in sideways through its opening.
 """
@@ -18,8 +21,8 @@ from dataclasses import dataclass
 from functools import partial
 
 from vpro_assets.libero.task_record import TABLE_CATEGORIES
-from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push
-from vpro_assets.rollout.policies.oracle.articulation import needs_opening, owner_of
+from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, sweep
+from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for, needs_opening, owner_of
 from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, narrowest
 from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
@@ -80,6 +83,24 @@ def _pick_place(world: World, held: str, relation: str, dest: str) -> Actions:
     return pick_place(world, held, relation, dest)
 
 
+def _drawers_out_of_the_way(world: World, goal: list[tuple[str, ...]], todo: list[tuple[str, ...]]) -> list[Step]:
+    """Close steps for the drawers that are out over an object still to be moved and that the goal
+    does not need open (neither asked open, held or not yet, nor something put in them)."""
+    movers = [pred[1] for pred in todo if pred[0] in PLACEMENT]
+    needed = {
+        joint_for(world, pred[-1]).id
+        for pred in goal
+        if (pred[0] == "open" or (pred[0] == "in" and _articulated(world, pred[2]))) and is_drawer(world, pred[-1])
+    }
+    return [
+        _open_step(world, joint.region, False)
+        for joint in sweep.drawer_joints(world)
+        if joint.id not in needed
+        and sweep.is_out(world, joint)
+        and any(sweep.under_sweep(world, joint, obj) for obj in movers)
+    ]
+
+
 def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, ...]], bool]) -> list[Step]:
     """Steps for the goal predicates that do not hold yet, in dependency order."""
     todo = [(g[0].lower(), *g[1:]) for g in goal if not holds(tuple(g))]
@@ -87,6 +108,7 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
     for pred in todo:
         if pred[0] in ("turnon", "turnoff"):
             steps.append(Step("knob", pred, partial(_switch, fixture=pred[1], on=pred[0] == "turnon")))
+    steps += _drawers_out_of_the_way(world, [(g[0].lower(), *g[1:]) for g in goal], todo)
     opened: set[str] = set()
     for pred in todo:
         if pred[0] == "open":
