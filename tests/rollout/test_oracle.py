@@ -17,9 +17,9 @@ from vpro_assets.core.errors import VProError
 from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode
-from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob
+from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, motion
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
-from vpro_assets.rollout.policies.oracle.grasp import above, narrowest, pick, plan_grasp, reach_height
+from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, above, narrowest, pick, plan_grasp, reach_height
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.plan import plan
 from vpro_assets.rollout.policies.oracle.policy import OracleController, OraclePolicy, libero_holds
@@ -247,6 +247,26 @@ def test_pick_lifts_objects_of_other_shapes(scene):
         s.run(pick(s.world, obj), limit=250)
         assert s.world.body_pos(obj)[2] - z0 > 0.05, obj
         assert s.world.held(obj), obj
+
+
+def test_inverted_bowl_lifted_by_its_foot(scene):
+    """libero_spatial-00's precondition object pose: the akita bowl stands upside down, rim on the
+    table. Its top is a 4.6 cm foot a few millimetres over shoulders sloping out to 9 cm, so the
+    fingertips land on the shoulders, which squeeze it down and out of a full close; the fingers
+    take the foot's sides, closed only to just inside it, and lift it clear of the table and hold
+    it. The scene is built first (a no-op when it is current)."""
+    case_id = "libero_spatial-00/task_precondition_variation/object_pose-v1"
+    subprocess.run([sys.executable, "-m", "vpro_assets.cli", "build", "--select", case_id], check=True)
+    s = scene(case_id)
+    bowl = s.cenv.task.target
+    w = s.world
+    assert w.d.xmat[w.entity(bowl).root][8] < -0.9  # the case keeps the bowl upside down
+    grasp = plan_grasp(w, bowl)
+    assert grasp.squeeze_to is not None and grasp.squeeze_to < grasp.width <= MAX_PINCH_M
+    z0 = w.body_pos(bowl)[2]
+    s.run(pick(w, bowl), limit=150)
+    s.run(motion.hold_still(w, w.hold_grip, 20), limit=25)
+    assert w.body_pos(bowl)[2] - z0 > 0.05 and w.held(bowl)
 
 
 def test_plan_orders_skills_from_goal_and_state(scene):

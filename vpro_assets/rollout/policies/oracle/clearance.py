@@ -14,7 +14,7 @@ import numpy as np
 
 from vpro_assets.core.mjgeom import geom_pieces
 from vpro_assets.rollout.policies.oracle import motion
-from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
+from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.world import World
 
 MARGIN_M = 0.01
@@ -77,10 +77,14 @@ def lift_clear(world: World, held: str, up_to: float) -> Actions:
     orient = world.eef_mat()
     if roof is not None:
         rise = max(0.0, roof - MARGIN_M - own[:, 1, 2].max())
-        yield from motion.move_to(world, world.eef() + [0, 0, rise], CLOSE, orient, tol=0.01, max_steps=40, speed=0.4)
+        yield from motion.move_to(
+            world, world.eef() + [0, 0, rise], world.hold_grip, orient, tol=0.01, max_steps=40, speed=0.4
+        )
         shift = _escape(boxes, object_boxes(world, held), up_to)
         if shift is not None:
-            yield from motion.move_to(world, world.eef() + shift, CLOSE, orient, tol=0.004, max_steps=80, speed=0.4)
+            yield from motion.move_to(
+                world, world.eef() + shift, world.hold_grip, orient, tol=0.004, max_steps=80, speed=0.4
+            )
 
 
 def _escape(boxes: np.ndarray, own: np.ndarray, up_to: float) -> np.ndarray | None:

@@ -5,8 +5,9 @@ The object's shape is the convex hulls of its collision geoms in the world (defo
 recoloured and look-alike objects alike: nothing is read from the object's name). An object narrow
 enough for the open fingers in some horizontal directions is pinched across the one where the open
 hand comes down lowest (turned away from its neighbours); one narrow only toward its top (a tapered
-can) is pinched there; a wider one (bowls, mugs, baskets) by its handle or at its wall, the fingers
-closing radially on the side nearest the robot.
+can) is pinched there; one whose top is a low foot over wide sloping shoulders (an inverted bowl)
+gently by the foot's sides; a wider one (bowls, mugs, baskets) by its handle or at its wall, the
+fingers closing radially on the side nearest the robot.
 """
 
 from __future__ import annotations
@@ -44,6 +45,17 @@ HANDLE_MIN_HEIGHT_M = 0.02  # a handle is at least this tall
 NARROW_DEPTH_M = 0.03  # deepest pinch below a solid object's top
 FINGER_PAD_HALF_M = 0.01  # the finger pads reach this far below the grip site
 OUTER_BAND_M = 0.03  # a part sticking out toward a side: geoms this close to the object's farthest one
+# A foot pinch (`foot_grasp`). The Panda's finger collision meshes reach 9.3 mm below the grip site,
+# 5 mm below the pads, and are about 1.5 cm thick and 2.2 cm wide; one CLOSE action moves the
+# fingers' target opening 1 cm (robosuite: 25 substeps of 1% of the 8 cm range).
+FINGERTIP_M = 0.0093
+FINGER_THICK_M = 0.015
+FINGER_HALF_WIDTH_M = 0.011
+FOOT_SLICE_M = 0.001  # the foot: the object's top this deep
+FOOT_CLEAR_M = 0.002  # the fingers' footprint starts this far outside the foot
+FOOT_STEP_M = 0.0005
+MIN_FOOT_BAND_M = 0.002  # a foot standing less than this over what is under the fingers is not pinched
+FOOT_SQUEEZE_M = 0.002  # the fingers' target opening at least this far inside the foot (at most 1 cm more)
 
 
 @dataclass(frozen=True)
@@ -52,6 +64,9 @@ class Grasp:
     axis: np.ndarray  # horizontal unit vector the fingers close along
     width: float  # extent of the object along `axis` at the grasp (m)
     rim: bool  # pinching a wall rather than the whole object
+    # A gentle pinch: the fingers' target opening (m), reached in whole CLOSE actions and then held
+    # (a full close on a low foot presses the fingers over it). None: close fully.
+    squeeze_to: float | None = None
 
 
 def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -111,6 +126,9 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     narrow = narrow_top_grasp(world, instance)
     if narrow is not None:
         return narrow
+    foot = foot_grasp(world, instance)
+    if foot is not None:
+        return foot
     # A wide object: pinch its wall, fingers closing radially, on the side nearest the robot where
     # the outer finger and the hand have room (a bowl in a drawer stands close to the drawer's wall).
     robot = np.append(ROBOT_BASE_XY - center[:2], 0.0) if toward is None else np.asarray(toward, dtype=float)
@@ -219,6 +237,59 @@ def narrow_top_grasp(world: World, instance: str) -> Grasp | None:
     return None if best is None else _clear_pinch(world, instance, *best)
 
 
+def foot_grasp(world: World, instance: str) -> Grasp | None:
+    """A gentle pinch of a top too wide for `narrow_top_grasp` because shoulders slope out under it
+    (an inverted akita bowl: a 4.6 cm plus-shaped foot, its arms' ends 1.3 mm over the shoulders'
+    inner edge, the shoulders sloping 35 degrees out to 9 cm, rim on the table). The fingertips
+    (friction 1) on the shoulders squeeze the bowl down and out of the hand, so the fingers' sides
+    take the foot's vertical sides, the fingertips just over the shoulders. Of the directions the
+    foot (its top FOOT_SLICE_M) fits the open fingers across, the one where it stands highest over
+    what lies under the fingers' footprint (across the plus's corners: 3.6 mm, where the shoulders
+    under the fingers are lower). The fingers close to just inside the foot and hold there: closed
+    fully, their 20 N press them over the foot's edge. None when the top does not stand over the
+    object's middle or no direction leaves MIN_FOOT_BAND_M."""
+    hulls = world.hulls(instance)
+    top = max(float(h[:, 2].max()) for h in hulls)
+    foot = above(hulls, top - FOOT_SLICE_M)
+    dirs, across = widths(foot)
+    # A foot stands over the object's middle: the top of a tilted upright bowl is an arc of its rim.
+    pts = np.concatenate(hulls)
+    middle = (pts.min(0)[:2] + pts.max(0)[:2]) / 2 @ dirs[:, :2].T
+    reach = foot[:, :2] @ dirs[:, :2].T
+    if np.any(middle < reach.min(0) + FOOT_CLEAR_M) or np.any(middle > reach.max(0) - FOOT_CLEAR_M):
+        return None
+    cuts = [above(hulls, top - depth) for depth in np.arange(FOOT_STEP_M, NARROW_DEPTH_M + 1e-9, FOOT_STEP_M)]
+    best: tuple[float, int] | None = None
+    for k in range(0, len(dirs), 5):
+        if across[k] + 2 * FOOT_CLEAR_M > MAX_PINCH_M:
+            continue
+        band = _foot_band(foot, cuts, dirs[k])
+        if best is None or band > best[0] + 1e-9:
+            best = band, k
+    if best is None or best[0] < MIN_FOOT_BAND_M:
+        return None
+    band, k = best
+    point = _middle(foot, dirs[k], top - band + FOOT_STEP_M + FINGERTIP_M)
+    return Grasp(point, dirs[k], float(across[k]), rim=False, squeeze_to=float(across[k]) - FOOT_SQUEEZE_M)
+
+
+def _foot_band(foot: np.ndarray, cuts: list[np.ndarray], axis: np.ndarray) -> float:
+    """How far below the top the fingertips come down beside `foot` (its points) closing along
+    `axis`: the depth of the last of `cuts` (the object above FOOT_STEP_M, 2 * FOOT_STEP_M, ... below
+    its top) with none of its points under the fingers' footprint (from FOOT_CLEAR_M outside the
+    foot, FINGER_THICK_M thick, 2 * FINGER_HALF_WIDTH_M wide)."""
+    across = np.array([-axis[1], axis[0]])
+    along_foot, across_foot = foot[:, :2] @ axis[:2], foot[:, :2] @ across
+    mid_along, half = (along_foot.max() + along_foot.min()) / 2, np.ptp(along_foot) / 2
+    mid_across = (across_foot.max() + across_foot.min()) / 2
+    for n, cut in enumerate(cuts):
+        out = np.abs(cut[:, :2] @ axis[:2] - mid_along) - half - FOOT_CLEAR_M
+        side = np.abs(cut[:, :2] @ across - mid_across)
+        if np.any((out > 0) & (out < FINGER_THICK_M) & (side < FINGER_HALF_WIDTH_M)):
+            return n * FOOT_STEP_M
+    return len(cuts) * FOOT_STEP_M
+
+
 def outer_part_grasp(world: World, instance: str, toward: np.ndarray) -> Grasp | None:
     """A grasp across the object's thin part that sticks out farthest toward `toward` (a mug's
     handle): its collision geoms within OUTER_BAND_M of its farthest point that way, when they are
@@ -290,13 +361,28 @@ def pick(world: World, instance: str, attempts: int = 3, toward: np.ndarray | No
         above[2] = max(above[2], world.eef()[2] if attempt == 0 else above[2])
         yield from motion.move_to(world, above, OPEN, orient, tol=0.015, max_steps=150)
         yield from motion.move_to(world, grasp.point + [0, 0, HOVER_M], OPEN, orient, tol=0.01, max_steps=60)
-        yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.006, max_steps=80, speed=0.6)
-        yield from motion.gripper(world, CLOSE, orient=orient)
+        if grasp.squeeze_to is None:
+            world.hold_grip = CLOSE
+            yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.006, max_steps=80, speed=0.6)
+            yield from motion.gripper(world, CLOSE, orient=orient)
+        else:
+            world.hold_grip = 0.0  # keep the fingers' target where the gentle close leaves it
+            yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.001, max_steps=120, speed=0.4)
+            yield from squeeze(world, grasp.squeeze_to, orient)
         yield from lift_clear(world, instance, world.table_z + CLEAR_ABOVE_TABLE_M)
         yield from motion.move_to(
-            world, world.eef() + [0, 0, LIFT_M], CLOSE, orient, tol=0.015, max_steps=60, speed=0.5
+            world, world.eef() + [0, 0, LIFT_M], world.hold_grip, orient, tol=0.015, max_steps=60, speed=0.5
         )
         if world.body_pos(instance)[2] - start_z > MIN_LIFT_M and world.finger_gap() > 0.002:
             return
         yield from motion.gripper(world, OPEN, orient=orient)
     raise SkillFailed(f"could not lift {instance} in {attempts} attempts")
+
+
+def squeeze(world: World, opening: float, orient: np.ndarray) -> Actions:
+    """Close the fingers in place, one CLOSE action at a time, until their target opening is at most
+    `opening`; then hold them there (action 0) while they settle."""
+    hold = world.eef()
+    for _ in range(motion.GRIPPER_STEPS):
+        grip = CLOSE if world.finger_target_gap() > opening else 0.0
+        yield motion.action_to(world, hold, grip, orient)

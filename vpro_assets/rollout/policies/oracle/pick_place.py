@@ -21,7 +21,7 @@ from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_fo
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
 from vpro_assets.rollout.policies.oracle.grasp import pick
-from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
+from vpro_assets.rollout.policies.oracle.motion import OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 CLEAR_M = 0.04  # the held object's bottom this far above every obstacle on the way
@@ -121,11 +121,15 @@ def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()
     top = corridor_top(world, start, xy, radius + 0.02, exclude=(held, *exclude))
     z = min(max(top + CLEAR_M + hang, world.eef()[2]), world.table_z + MAX_CARRY_ABOVE_TABLE_M)
     orient = world.eef_mat()
-    yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, orient, tol=0.015, max_steps=80, speed=CARRY_SPEED)
+    yield from motion.move_to(
+        world, [*world.eef()[:2], z], world.hold_grip, orient, tol=0.015, max_steps=80, speed=CARRY_SPEED
+    )
     for _ in range(3):  # re-aim as the held object swings
         check_held(world, held, hang)
         offset = world.eef()[:2] - world.body_pos(held)[:2]
-        yield from motion.move_to(world, [*(xy + offset), z], CLOSE, orient, tol=0.01, max_steps=120, speed=CARRY_SPEED)
+        yield from motion.move_to(
+            world, [*(xy + offset), z], world.hold_grip, orient, tol=0.01, max_steps=120, speed=CARRY_SPEED
+        )
     check_held(world, held, hang)
 
 
@@ -150,7 +154,7 @@ def lower_and_release(world: World, held: str, dest: Destination) -> Actions:
             break  # the hand rests on something (a basket's rim under its palm): let go here
         offset = world.eef()[:2] - world.body_pos(held)[:2]
         goal = np.array([*(dest.xy + offset), world.eef()[2] - 0.03])
-        yield motion.action_to(world, goal, CLOSE, orient, speed=0.5)
+        yield motion.action_to(world, goal, world.hold_grip, orient, speed=0.5)
     yield from motion.gripper(world, OPEN, orient=orient)
     yield from motion.move_to(world, world.eef() + [0, 0, RETREAT_M], OPEN, orient, tol=0.02, max_steps=40)
 

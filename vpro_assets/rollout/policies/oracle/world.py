@@ -60,6 +60,9 @@ class World:
         self._entities: dict[str, Entity] = {}
         self._hulls = GeomHulls()
         self.step = 0  # control steps the oracle has acted
+        # The gripper action that keeps a held object: 1 closes on it, 0 keeps the fingers' target
+        # where the grasp left it (a gentle pinch, `grasp.foot_grasp`). Set by each pick.
+        self.hold_grip = 1.0
         # The table (or floor) top: what the lowest movable object rests on.
         self.table_z = min(float(self.box(inst).lo[2]) for inst, _ in task.objects) if task.objects else 0.0
 
@@ -92,6 +95,15 @@ class World:
     def finger_gap(self) -> float:
         """Opening of the fingers (m): about 0.08 open, near 0 closed on nothing."""
         return float(abs(self.d.qpos[self._finger_qpos[0]]) + abs(self.d.qpos[self._finger_qpos[1]]))
+
+    @cached_property
+    def _finger_actuators(self) -> list[int]:
+        joints = {self._id(mujoco.mjtObj.mjOBJ_JOINT, j) for j in FINGER_JOINTS}
+        return [a for a in range(self.m.nu) if int(self.m.actuator_trnid[a, 0]) in joints]
+
+    def finger_target_gap(self) -> float:
+        """The opening the fingers' position actuators drive to (m), as `finger_gap` measures it."""
+        return float(sum(abs(self.d.ctrl[a]) for a in self._finger_actuators))
 
     def finger_axis(self) -> np.ndarray:
         """Horizontal unit vector along which the fingers close."""
