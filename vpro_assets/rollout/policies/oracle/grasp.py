@@ -244,7 +244,7 @@ def foot_grasp(world: World, instance: str) -> Grasp | None:
     (friction 1) on the shoulders squeeze the bowl down and out of the hand, so the fingers' sides
     take the foot's vertical sides, the fingertips just over the shoulders. Of the directions the
     foot (its top FOOT_SLICE_M) fits the open fingers across, the one where it stands highest over
-    what lies under the fingers' footprint (across the plus's corners: 3.6 mm, where the shoulders
+    what lies under the fingers' footprint (across the plus's corners: about 4 mm, where the shoulders
     under the fingers are lower). The fingers close to just inside the foot and hold there: closed
     fully, their 20 N press them over the foot's edge. None when the top does not stand over the
     object's middle or no direction leaves MIN_FOOT_BAND_M."""
