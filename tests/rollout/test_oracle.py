@@ -198,6 +198,18 @@ def test_door_closes_the_microwave(scene):
     assert s.holds(("close", "microwave_1"))
 
 
+def test_door_opens_the_closed_microwave_by_its_handle(scene):
+    """The precondition case's microwave starts closed: the hand takes the handle's bar and swings
+    it about the hinge past LIBERO's Open threshold (qpos < -1.3), then stands clear over the door."""
+    s = scene("libero_10-09/task_precondition_variation/receptacle_openness-v1")
+    joint = s.world.joint("microwave_1_microjoint")
+    assert s.holds(("close", "microwave_1")) and not s.holds(("open", "microwave_1"))
+    steps = s.run(door.open_(s.world, "microwave_1_heating_region"), limit=220)
+    assert s.world.qpos(joint) < -1.3, steps  # LIBERO's Microwave: open below -1.3
+    assert s.holds(("open", "microwave_1")) and s.world.finger_gap() > 0.05
+    assert s.world.eef()[2] > 1.108 + 0.05  # over the door's top (1.108 m)
+
+
 def test_mug_goes_into_the_covered_microwave_sideways_then_the_door_closes(scene):
     """The microwave's top plate is 14 cm over its floor: the mug goes in through the opening by
     its handle and is pushed behind the front face, so LIBERO's In holds and the door closes."""

@@ -4,8 +4,17 @@ The door is the body the fixture's hinge joint moves. Its free edge is its point
 hinge axis; the closing direction at a point is the axis crossed with the door's direction, signed
 toward the closed end of the joint's range. The closed fingers stand on the near side of the door,
 a little inside its edge, and follow the door's arc, always aiming a little ahead of its current
-angle, until LIBERO's `Close` check holds. Opening a closed door would need a grasp of its edge
-from outside; it is not in the oracle yet (no base task asks for it).
+angle, until LIBERO's `Close` check holds.
+
+A closed door opens by its handle: the door's geoms other than its plate that stand out in front of
+it, the one farthest out the bar (LIBERO's microwave, measured from the model: a vertical bar
+2 x 2 x 15 cm on two standoffs, 1.9 cm in front of the plate, 24 cm from the hinge). The hand,
+pointing down, straddles the bar with its fingers closing along the line from the hinge (the bar's
+standoffs lie across it, between the fingers), 1.6 cm under the bar's top (lower, the fingers meet
+the upper standoff), and closes on it. It then swings the grasp point about the hinge, aiming a
+little past the door's current angle, the hand turning about the vertical with the door, until
+LIBERO's `Open` check holds and the door is a margin past it (or the bar slips out); then it lets
+go, backs off the door and rises over its top, so that the next skill's path does not sweep it shut.
 """
 
 from __future__ import annotations
@@ -15,12 +24,20 @@ import numpy as np
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import joint_for
-from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
+from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 LEAD_RAD = 0.25  # aim this far ahead of the door's current angle
 EDGE_INSET = 0.8  # push at this fraction of the door's radius
 STANDOFF_M = 0.03  # grip site this far from the door's face before pushing
+OPEN_MARGIN_RAD = 0.35  # swing the door this far past where LIBERO's Open first holds
+OPEN_STEPS = 200
+DESCEND_STEPS = 20  # the fingers may stop short on the bar
+SWING_SPEED = 0.8
+LOST_GAP_M = 0.01  # fingers closer than this hold nothing
+CLEAR_TOP_M = 0.1  # the grip site this far over the door's top after letting go
+RELEASE_STEPS = 8  # the fingers open off a 2 cm bar
+GRIP_BELOW_TOP_M = 0.016  # the grip site this far below the bar's top (lower, the fingers meet its upper standoff)
 
 
 def _door_frame(world: World, joint) -> tuple[np.ndarray, np.ndarray, float, float, float]:
@@ -35,9 +52,66 @@ def _door_frame(world: World, joint) -> tuple[np.ndarray, np.ndarray, float, flo
     return anchor, u, float(np.linalg.norm(far)), thick, float((pts[:, 2].min() + pts[:, 2].max()) / 2)
 
 
+def _handle_point(world: World, joint, u: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """The middle of the handle's bar: of the door's geoms, the one reaching farthest out along
+    `out` (the plate's outward normal) beyond the plate's outer face, the tallest of those within
+    3 mm of the farthest (the bar, not its standoffs)."""
+    geoms = world.joint_geoms(joint.id)
+    corners = {g: geom_corners(world.m, world.d, [g]) for g in geoms}
+    plate = max(geoms, key=lambda g: float(np.ptp(corners[g][:, :2] @ u[:2])))
+    face = float((corners[plate][:, :2] @ out[:2]).max())
+    standing = [g for g in geoms if g != plate and float((corners[g][:, :2] @ out[:2]).max()) > face + 0.005]
+    if not standing:
+        raise SkillFailed(f"{joint.region}: the door has no handle in front of its plate")
+    reach = {g: float((corners[g][:, :2] @ out[:2]).max()) for g in standing}
+    front = [g for g in standing if reach[g] > max(reach.values()) - 0.003]
+    bar = max(front, key=lambda g: float(np.ptp(corners[g][:, 2])))
+    point = (corners[bar].min(0) + corners[bar].max(0)) / 2
+    point[2] = min(point[2], float(corners[bar][:, 2].max()) - GRIP_BELOW_TOP_M)
+    return point
+
+
+def _turn(axis: np.ndarray, angle: float) -> np.ndarray:
+    return quat_matrix(axis_angle_quat(axis, angle))
+
+
 def open_(world: World, region: str) -> Actions:
-    raise SkillFailed(f"{region}: opening a closed door is not supported by the oracle yet")
-    yield  # a generator like every skill
+    joint = joint_for(world, region)
+    goal = ("open", joint.fixture)  # LIBERO's Open of the fixture (its hinge past -1.3 for the microwave)
+    if world.holds(goal):
+        return
+    axis = world.d.xaxis[joint.id].copy()
+    sign = joint.open_sign  # the joint's direction of opening
+    anchor, u, _, _, _ = _door_frame(world, joint)
+    out = np.cross(axis * sign, u)  # motion of the door's points while it opens: out of its front
+    grip_pt = _handle_point(world, joint, u, out)
+    q0 = world.qpos(joint.id)
+    orient0 = motion.facing([0, 0, -1], u, world.eef_mat())
+    yield from motion.move_to(world, grip_pt + out * 0.05 + [0, 0, 0.12], OPEN, orient0, tol=0.02, max_steps=100)
+    yield from motion.move_to(world, grip_pt, OPEN, orient0, tol=0.01, max_steps=DESCEND_STEPS, speed=0.6)
+    yield from motion.gripper(world, CLOSE, orient=orient0)
+    done_at = None
+    for _ in range(OPEN_STEPS):
+        q = world.qpos(joint.id)
+        if done_at is None and world.holds(goal):
+            done_at = q
+        if (done_at is not None and abs(q - done_at) >= OPEN_MARGIN_RAD) or world.finger_gap() < LOST_GAP_M:
+            break  # far enough, or the bar slipped out of the fingers
+        turn = _turn(axis, q - q0 + sign * LEAD_RAD)
+        target = anchor + turn @ (grip_pt - anchor)
+        yield motion.action_to(world, target, CLOSE, turn @ orient0, speed=SWING_SPEED)
+    orient = world.eef_mat()
+    yield from motion.gripper(world, OPEN, steps=RELEASE_STEPS, orient=orient)
+    _, u_now, _, _, _ = _door_frame(world, joint)
+    away = np.cross(axis * sign, u_now)
+    yield from motion.move_to(world, world.eef() + away * 0.05, OPEN, orient, tol=0.015, max_steps=10)
+    # Over the door's top: the next skill's path to the object must not sweep the door shut.
+    top = float(geom_corners(world.m, world.d, world.joint_geoms(joint.id))[:, 2].max())
+    over = world.eef()
+    over[2] = max(over[2], top + CLEAR_TOP_M)
+    yield from motion.move_to(world, over, OPEN, orient, tol=0.02, max_steps=30)
+    if not world.holds(goal):
+        raise SkillFailed(f"{region} did not open (hinge at {world.qpos(joint.id):.3f})")
 
 
 def close(world: World, region: str) -> Actions:
