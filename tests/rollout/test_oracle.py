@@ -156,7 +156,7 @@ def test_drawer_opens_past_libero_open_threshold_then_closes_fully_home(scene):
 
 
 def _shut(s: Scene, joint: int, q: float) -> None:
-    """Set a drawer's joint (a closed start, as the precondition cases give it) and settle."""
+    """Set a drawer's or door's joint (a closed start, as the precondition cases give it) and settle."""
     s.cenv.sim.data.qpos[s.world.m.jnt_qposadr[joint]] = q
     s.cenv.sim.forward()
     for _ in range(5):
@@ -199,10 +199,12 @@ def test_door_closes_the_microwave(scene):
 
 
 def test_door_opens_the_closed_microwave_by_its_handle(scene):
-    """The precondition case's microwave starts closed: the hand takes the handle's bar and swings
-    it about the hinge past LIBERO's Open threshold (qpos < -1.3), then stands clear over the door."""
-    s = scene("libero_10-09/task_precondition_variation/receptacle_openness-v1")
+    """A closed microwave (libero_10-09's, shut to -4 mm as its precondition case's trial 0 starts
+    it; set here so a clean clone needs no built scene case): the hand takes the handle's bar and
+    swings it about the hinge past LIBERO's Open threshold (qpos < -1.3), then stands clear over it."""
+    s = scene("libero_10-09/normal")
     joint = s.world.joint("microwave_1_microjoint")
+    _shut(s, joint, -0.004)
     assert s.holds(("close", "microwave_1")) and not s.holds(("open", "microwave_1"))
     steps = s.run(door.open_(s.world, "microwave_1_heating_region"), limit=220)
     assert s.world.qpos(joint) < -1.3, steps  # LIBERO's Microwave: open below -1.3
