@@ -19,7 +19,7 @@ import numpy as np
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
-from vpro_assets.rollout.policies.oracle.grasp import HAND_PARTS, pick
+from vpro_assets.rollout.policies.oracle.grasp import HAND_PARTS, outer_part_grasp, pick
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.pick_place import carry
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
@@ -34,6 +34,8 @@ BEHIND_FRONT_M = 0.008  # the object's front this far behind the front face
 PUSH_TILT_RAD = 0.6  # fingertips lead the wrist by about 6 cm into the mouth
 PUSH_HEIGHT_M = 0.025  # fingertips this far above the floor while pushing
 PUSH_STEP_M = 0.01
+HANDLE_SEARCH_DEG = 5.0
+TURN_STEPS = 30
 WALL_PROBE_M = 0.06  # a side counts as walled when a geom lies this far past the region's box
 
 
@@ -101,12 +103,39 @@ def covered(world: World, region: str) -> Cavity | None:
     )
 
 
+def handle_side(world: World, held: str, prefer: np.ndarray) -> np.ndarray:
+    """The horizontal direction of the object's handle (the thin part `grasp.outer_part_grasp` takes,
+    at whatever yaw the object stands): of the directions in HANDLE_SEARCH_DEG steps, the one across
+    which that part is thinnest, the nearest `prefer` of equals; `prefer` when none has one."""
+    best: tuple[float, float, np.ndarray] | None = None
+    for deg in np.arange(0.0, 360.0, HANDLE_SEARCH_DEG):
+        ang = np.radians(deg)
+        d = np.array([np.cos(ang), np.sin(ang), 0.0])
+        grasp = outer_part_grasp(world, held, d)
+        if grasp is not None:
+            key = (round(grasp.width, 3), -float(d @ prefer))
+            if best is None or key < best[:2]:
+                best = (*key, d)
+    return prefer if best is None else best[2]
+
+
+def _signed_angle(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle (rad) turning horizontal `a` to `b` counter-clockwise seen from above."""
+    return float(np.arctan2(a[0] * b[1] - a[1] * b[0], a[0] * b[0] + a[1] * b[1]))
+
+
 def put_in(world: World, held: str, region: str) -> Actions:
     """Pick `held` and put it into the covered cavity of `region`."""
     cav = covered(world, region)
     if cav is None:
         raise SkillFailed(f"{region} is not a covered cavity open on one side")
-    yield from pick(world, held, toward=-cav.inward)
+    toward = handle_side(world, held, -cav.inward)
+    yield from pick(world, held, toward=toward)
+    # Turn the held object about the grip so that what was taken leads out of the opening.
+    turn = quat_matrix(axis_angle_quat([0, 0, 1], _signed_angle(toward, -cav.inward)))
+    yield from motion.move_to(
+        world, world.eef(), world.hold_grip, turn @ world.eef_mat(), tol=0.01, max_steps=TURN_STEPS
+    )
     grip = world.eef()[:2] - world.body_pos(held)[:2]
     box = world.box(held)
     hang = world.eef()[2] - box.lo[2]

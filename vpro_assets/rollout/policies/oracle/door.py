@@ -30,13 +30,14 @@ from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 LEAD_RAD = 0.25  # aim this far ahead of the door's current angle
 EDGE_INSET = 0.8  # push at this fraction of the door's radius
 STANDOFF_M = 0.03  # grip site this far from the door's face before pushing
-OPEN_MARGIN_RAD = 0.35  # swing the door this far past where LIBERO's Open first holds
+OPEN_MARGIN_RAD = 0.2  # this far past where LIBERO's Open first holds (0.35 cost libero_10-09 ~15 steps)
 OPEN_STEPS = 200
 DESCEND_STEPS = 20  # the fingers may stop short on the bar
 SWING_SPEED = 0.8
 LOST_GAP_M = 0.01  # fingers closer than this hold nothing
 CLEAR_TOP_M = 0.1  # the grip site this far over the door's top after letting go
 RELEASE_STEPS = 8  # the fingers open off a 2 cm bar
+STALL_STEPS = 5  # moves toward the door end when the hand stops this many steps (resting on the door)
 GRIP_BELOW_TOP_M = 0.016  # the grip site this far below the bar's top (lower, the fingers meet its upper standoff)
 
 
@@ -88,7 +89,9 @@ def open_(world: World, region: str) -> Actions:
     q0 = world.qpos(joint.id)
     orient0 = motion.facing([0, 0, -1], u, world.eef_mat())
     yield from motion.move_to(world, grip_pt + out * 0.05 + [0, 0, 0.12], OPEN, orient0, tol=0.02, max_steps=100)
-    yield from motion.move_to(world, grip_pt, OPEN, orient0, tol=0.01, max_steps=DESCEND_STEPS, speed=0.6)
+    yield from motion.move_to(
+        world, grip_pt, OPEN, orient0, tol=0.01, max_steps=DESCEND_STEPS, speed=0.6, stall_steps=STALL_STEPS
+    )
     yield from motion.gripper(world, CLOSE, orient=orient0)
     done_at = None
     for _ in range(OPEN_STEPS):
@@ -128,7 +131,8 @@ def close(world: World, region: str) -> Actions:
     start = anchor + u * r - push_dir * (thick + STANDOFF_M)
     start[2] = mid_z
     yield from motion.move_to(world, start + [0, 0, 0.12], CLOSE, orient, tol=0.015, max_steps=150)
-    yield from motion.move_to(world, start, CLOSE, orient, tol=0.01, max_steps=80, speed=0.6)
+    # The hand may come to rest on the door's edge short of the start: the push goes on from there.
+    yield from motion.move_to(world, start, CLOSE, orient, tol=0.01, max_steps=80, speed=0.6, stall_steps=STALL_STEPS)
     for _ in range(220):
         if world.holds(goal):
             break

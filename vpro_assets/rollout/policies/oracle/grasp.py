@@ -293,12 +293,17 @@ def _foot_band(foot: np.ndarray, cuts: list[np.ndarray], axis: np.ndarray) -> fl
 def outer_part_grasp(world: World, instance: str, toward: np.ndarray) -> Grasp | None:
     """A grasp across the object's thin part that sticks out farthest toward `toward` (a mug's
     handle): its collision geoms within OUTER_BAND_M of its farthest point that way, when they are
-    thinner than HANDLE_MAX_M across."""
+    thinner than HANDLE_MAX_M across `toward`; the fingers close across it, at its middle."""
     boxes = [geom_corners(world.m, world.d, [g]) for g in world.geoms(instance)]
     reach = [float(((b.min(0) + b.max(0)) / 2)[:2] @ toward[:2]) for b in boxes]
     part = np.concatenate([b for b, r in zip(boxes, reach, strict=True) if r >= max(reach) - OUTER_BAND_M])
-    size = part.max(0) - part.min(0)
-    return None if min(size[0], size[1]) >= HANDLE_MAX_M else _pinch_across(part)
+    across = np.array([-toward[1], toward[0], 0.0])
+    along, side = part[:, :2] @ toward[:2], part[:, :2] @ across[:2]
+    if np.ptp(side) >= HANDLE_MAX_M:
+        return None
+    point = _pinch_across(part).point
+    point[:2] = toward[:2] * (along.max() + along.min()) / 2 + across[:2] * (side.max() + side.min()) / 2
+    return Grasp(point, across, float(np.ptp(side)), rim=False)
 
 
 def _pinch_across(part: np.ndarray) -> Grasp:

@@ -27,6 +27,7 @@ ROT_GAIN = 1.0
 OPEN, CLOSE = -1.0, 1.0
 GRIPPER_STEPS = 12  # control steps for the fingers to close or open
 TOL_M = 0.008
+STALL_M = 0.003  # a move has stalled when the grip site moved less than this in its stall steps
 DOWN = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # grip site pointing down, fingers along world y
 
 
@@ -83,15 +84,21 @@ def move_to(
     max_steps: int = 120,
     speed: float = 1.0,
     strict: bool = False,
+    stall_steps: int | None = None,
 ) -> Actions:
     """Drive the grip site to `goal` (within `tol`); gives up after `max_steps` (SkillFailed when
-    `strict`)."""
+    `strict`), or with `stall_steps`, once the grip site moved less than STALL_M in that many steps
+    (the hand resting on something: a door's edge under the palm)."""
     goal = np.asarray(goal, dtype=float)
+    trail: list[np.ndarray] = []
     for _ in range(max_steps):
         if np.linalg.norm(goal - world.eef()) < tol and (
             orient is None or np.linalg.norm(rotation_error(world.eef_mat(), orient)) < 0.05
         ):
             return
+        trail.append(world.eef())
+        if stall_steps and len(trail) > stall_steps and np.linalg.norm(trail[-1] - trail[-1 - stall_steps]) < STALL_M:
+            break
         yield action_to(world, goal, grip, orient, speed)
     if strict:
         raise SkillFailed(

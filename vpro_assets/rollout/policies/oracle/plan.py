@@ -7,6 +7,7 @@ predicate functions, so a predicate that already holds gets no skill. The order:
 2. open what the goal asks open, and every closed drawer or door something must go *into*;
 3. placements (`On`, `In`), in the goal's order;
 4. close what the goal asks closed (after whatever goes inside).
+Before a door opens in 2, the objects standing in its swing are pushed out of it (`swing`).
 Before 2, a drawer out over an object still to be moved (`sweep`: the box its geoms pass through
 between closed and open covers the object's footprint) is closed if the goal does not need it open
 (neither asked open nor filled): the open drawer stops the hand coming down on the object.
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 from functools import partial
 
 from vpro_assets.libero.task_record import TABLE_CATEGORIES
-from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, sweep
+from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, sweep, swing
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for, needs_opening, owner_of
 from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, narrowest
 from vpro_assets.rollout.policies.oracle.motion import Actions
@@ -101,6 +102,26 @@ def _drawers_out_of_the_way(world: World, goal: list[tuple[str, ...]], todo: lis
     ]
 
 
+def _push_out(world: World, region: str, obj: str) -> Actions:
+    return swing.push_out(world, joint_for(world, region), obj)
+
+
+def _out_of_the_swing(world: World, door_region: str) -> list[Step]:
+    """Push steps for the objects standing where the door opens (`swing`)."""
+    joint = joint_for(world, door_region)
+    return [
+        Step("swing", ("clear", obj, joint.fixture), partial(_push_out, region=door_region, obj=obj))
+        for obj, _ in world.task.objects
+        if swing.in_swing(world, joint, world.points(obj))
+    ]
+
+
+def _opening(world: World, region: str) -> list[Step]:
+    """The open step of a drawer or door; before a door's, pushes out of its swing."""
+    door_first = _out_of_the_swing(world, region) if _is_door(world, owner_of(world, region)) else []
+    return [*door_first, _open_step(world, region, True)]
+
+
 def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, ...]], bool]) -> list[Step]:
     """Steps for the goal predicates that do not hold yet, in dependency order."""
     todo = [(g[0].lower(), *g[1:]) for g in goal if not holds(tuple(g))]
@@ -112,7 +133,7 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
     opened: set[str] = set()
     for pred in todo:
         if pred[0] == "open":
-            steps.append(_open_step(world, pred[1], True))
+            steps += _opening(world, pred[1])
             opened.add(pred[1])
     for pred in todo:
         if (
@@ -122,7 +143,7 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
             and not holds(("open", pred[2]))
             and needs_opening(world, pred[2])
         ):
-            steps.append(_open_step(world, pred[2], True))
+            steps += _opening(world, pred[2])
             opened.add(pred[2])
     for pred in todo:
         if pred[0] in PLACEMENT:
