@@ -24,12 +24,14 @@ STALENESS_DELAYS = (5, 10, 20)  # control steps: 0.25 s, 0.5 s, 1 s (level 1 = o
 FREEZE_STEP = 30  # the view keeps showing the frame of this step from then on
 REPLAY_START, REPLAY_WINDOW = 40, 20  # from step 40 the view loops over its frames 20..39
 CONTRADICTION_OFFSET_M = 0.10  # quantity: the duplicate drawn at least 10 cm from the target
-# Position (version 3): the target drawn with its projected centre at least this share of the image
+# Position (version 4): the target drawn with its projected centre at least this share of the image
 # height from the real one (32 px at 128), in view (version 1 shifted it 10 cm in the world, out
 # of the wrist camera's view on most steps; version 3 scores candidate places by the image area
-# their visible parts cover, where version 2 left out the off-axis widening: docs/perturbations.md).
+# their visible parts cover, where version 2 left out the off-axis widening; version 4 draws the
+# scored points evenly over the surface and scores the best places again from more points before
+# choosing among them: docs/perturbations.md).
 CONTRADICTION_MIN_SHIFT = 0.25
-CONTRADICTION_VERSIONS = {"quantity": 1, "existence": 1, "position": 3, "state": 1}
+CONTRADICTION_VERSIONS = {"quantity": 1, "existence": 1, "position": 4, "state": 1}
 # Cross-view contradiction: the scene edit that makes each attribute disagree between the views.
 CONTRADICTION_EDITS = {
     "quantity": "duplicate_target",

@@ -79,6 +79,7 @@ class Contradiction(Perturbation):
         self._scratch: mujoco.MjData | None = None
         self._joints: list[tuple[int, float, float]] = []
         self._samples: dp.Samples | None = None
+        self._shape: dp.TargetShape | None = None
         self._geomgroup = np.ones(6, dtype=np.uint8)
         self._previous: int | None = None  # the direction the displaced target was drawn in last
         self.last_choice: dp.Choice | None = None  # where it was drawn last (read by tests)
@@ -98,6 +99,7 @@ class Contradiction(Perturbation):
         if self.attribute == "position":
             target = self.target
             self._samples = dp.target_samples(entities.model, target.visual_geoms or target.geoms)
+            self._shape = dp.TargetShape(entities.model, target.visual_geoms or target.geoms)
             self._geomgroup = render_context(sim).vopt.geomgroup.copy()  # what the cameras draw
             self._previous, self.last_choice = None, None
 
@@ -167,13 +169,13 @@ class Contradiction(Perturbation):
         """Where to draw the target in this step (`displacement.choose_offset`): at least
         `min_shift` of the image away, further (up to its own projected size) where it stays as
         visible as the real target."""
-        if self._samples is None:
+        if self._samples is None or self._shape is None:
             raise VProError(f"case {self.case_id}: position contradiction used before attach()")
         model, data = self.index.model, self.sim.data._data
         camera = dp.Camera.of(model, data, model.camera(self.camera).id)
-        points, normals = self._samples.world(data)
-        visibility = dp.Visibility(model, data, camera, self._geomgroup, self.target.geoms)
-        choice = dp.choose_offset(visibility, points, normals, self.shifts(camera, points), self.angle, self._previous)
+        points = self._samples.world(data)
+        visibility = dp.Visibility(model, data, camera, self._geomgroup, self.target.geoms, self._shape)
+        choice = dp.choose_offset(visibility, points, self.shifts(camera, points), self.angle, self._previous)
         self._previous, self.last_choice = choice.direction, choice
         return choice.offset
 
