@@ -348,10 +348,14 @@ def blocked_spots(boxes: np.ndarray, grasp: Grasp) -> int:
 
 
 def grasp_orientation(world: World, axis: np.ndarray) -> np.ndarray:
-    """Gripper pointing down with the fingers closing along `axis` (the yaw nearest the current)."""
+    """Gripper pointing down with the fingers closing along `axis`: the yaw nearest the current, or
+    the other (half a turn away) when the nearer would turn the wrist past its limit."""
     yaw = float(np.arctan2(axis[1], axis[0]))
     now = motion.yaw_of(world.eef_mat())
     yaw += np.pi * np.round((now - yaw) / np.pi)
+    wrist = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per radian of yaw
+    if world.wrist_room((yaw - now) * wrist) < 0:
+        yaw = max((yaw, yaw - np.pi * np.sign(yaw - now)), key=lambda y: world.wrist_room((y - now) * wrist))
     return motion.down_with_yaw(yaw)
 
 

@@ -18,7 +18,6 @@ neighbours and leaves the tilted hand room behind it (nothing of the fixture the
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
@@ -26,7 +25,7 @@ from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import Joint
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
-from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
+from vpro_assets.rollout.policies.oracle.world import World
 
 SWING_MARGIN_M = 0.012  # an object this close to the door's sweep is in it
 CLEAR_MARGIN_M = 0.02  # pushed until this far outside the sweep
@@ -144,30 +143,10 @@ def fingertips_leading(world: World, direction: np.ndarray) -> np.ndarray:
     sign = np.sign(np.cross(across, [0, 0, -1]) @ direction)
     tilt = quat_matrix(axis_angle_quat(across, PUSH_TILT_RAD * sign))
     candidates = [tilt @ motion.facing([0, 0, -1], f * across) for f in (1.0, -1.0)]
-    wrist = _wrist_joint(world)
-    axis = world.d.xaxis[wrist]
-    lo, hi = (float(x) for x in world.m.jnt_range[wrist])
-
-    def room(goal: np.ndarray) -> float:
-        q = world.qpos(wrist) + float(motion.rotation_error(world.eef_mat(), goal) @ axis)
-        return min(q - lo, hi - q)
-
-    return max(candidates, key=room)
-
-
-def _wrist_joint(world: World) -> int:
-    """The arm's last hinge: the first found walking up from the grip site's body."""
-    body = int(world.m.site_bodyid[world.grip_site])
-    while body > 0:
-        hinges = [
-            j
-            for j in range(world.m.njnt)
-            if world.m.jnt_bodyid[j] == body and world.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE
-        ]
-        if hinges:
-            return hinges[0]
-        body = int(world.m.body_parentid[body])
-    raise SkillFailed("no hinge between the grip site and the world")
+    axis = world.d.xaxis[world.wrist_joint]
+    return max(
+        candidates, key=lambda goal: world.wrist_room(float(motion.rotation_error(world.eef_mat(), goal) @ axis))
+    )
 
 
 def push_out(world: World, joint: Joint, obj: str) -> Actions:

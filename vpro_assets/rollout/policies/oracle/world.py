@@ -113,6 +113,25 @@ class World:
         return np.append(axis / (np.linalg.norm(axis) + 1e-9), 0.0)
 
     @cached_property
+    def wrist_joint(self) -> int:
+        """The arm's last hinge (the Panda's joint 7, turning the hand about its axis): the first
+        hinge found walking up from the grip site's body."""
+        body = int(self.m.site_bodyid[self.grip_site])
+        while body > 0:
+            for j in range(self.m.njnt):
+                if self.m.jnt_bodyid[j] == body and self.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+                    return j
+            body = int(self.m.body_parentid[body])
+        raise VProError(f"task {self.task.key}: no hinge between the grip site and the world")
+
+    def wrist_room(self, turn: float) -> float:
+        """How far the wrist joint stays from its nearer limit after the hand turns `turn` rad more
+        about the wrist's axis (negative: past it)."""
+        lo, hi = (float(x) for x in self.m.jnt_range[self.wrist_joint])
+        q = self.qpos(self.wrist_joint) + turn
+        return min(q - lo, hi - q)
+
+    @cached_property
     def gripper_geoms(self) -> frozenset[int]:
         return frozenset(
             g for g in range(self.m.ngeom) if self._body_name(self.m.geom_bodyid[g]).startswith(GRIPPER_PREFIX)
