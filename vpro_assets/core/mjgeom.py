@@ -14,6 +14,17 @@ from collections.abc import Iterable, Sequence
 import mujoco
 import numpy as np
 
+
+def subtree(model, root: int) -> list[int]:
+    """Body `root` and every body below it, in body order (MuJoCo numbers a child after its parent)."""
+    out, inside = [root], {root}
+    for body in range(root + 1, model.nbody):
+        if model.body_parentid[body] in inside:
+            out.append(body)
+            inside.add(body)
+    return out
+
+
 # The 8 corners of the unit box [-1, 1]^3, in a fixed order.
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
 

@@ -46,7 +46,6 @@ class _Arm:
     gripper_actuators: list
     gripper_bias: np.ndarray
     gripper_weight: np.ndarray
-    action_slice: slice
     gripper_slice: slice
 
 
@@ -88,7 +87,6 @@ class Arms:
                     # robosuite's Manipulator.grip_action computes these at every call, the same way
                     gripper_bias=0.5 * (ctrl_range[:, 1] + ctrl_range[:, 0]),
                     gripper_weight=0.5 * (ctrl_range[:, 1] - ctrl_range[:, 0]),
-                    action_slice=slice(cutoff, cutoff + dim),
                     gripper_slice=slice(cutoff + dim, cutoff + robot.action_dim),
                 )
             )

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
+from vpro_assets.core.mjgeom import subtree
 from vpro_assets.libero.names import GRIPPER_PREFIX
 from vpro_assets.libero.task_record import TaskRecord
 
@@ -41,18 +42,10 @@ def _name(m, kind, i) -> str:
     return mujoco.mj_id2name(m, kind, i) or ""
 
 
-def _subtree(m, root: int) -> list[int]:
-    out = [root]
-    for b in range(root + 1, m.nbody):
-        if m.body_parentid[b] in out:
-            out.append(b)
-    return out
-
-
 def _entity(m, name: str, roots: list[int]) -> Entity:
     bodies: list[int] = []
     for r in roots:
-        bodies += [b for b in _subtree(m, r) if b not in bodies]
+        bodies += [b for b in subtree(m, r) if b not in bodies]
     body_set = set(bodies)
     geoms = tuple(int(g) for g in range(m.ngeom) if m.geom_bodyid[g] in body_set)
     visual = tuple(g for g in geoms if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0)

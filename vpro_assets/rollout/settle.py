@@ -24,7 +24,7 @@ from collections.abc import Mapping
 import mujoco
 import numpy as np
 
-from vpro_assets.core.mjgeom import colliding, geom_corners
+from vpro_assets.core.mjgeom import colliding, geom_corners, subtree
 from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.libero.settled import articulated_joints, joint_positions, movable_objects, pose
 from vpro_assets.rollout.case_env import env_for_case
@@ -44,11 +44,7 @@ def _name(model, kind, index: int) -> str:
 
 
 def _subtree(model, root: int) -> set[int]:
-    bodies = {root}
-    for body in range(root + 1, model.nbody):
-        if model.body_parentid[body] in bodies:
-            bodies.add(body)
-    return bodies
+    return set(subtree(model, root))
 
 
 def _colliding_geoms(model, bodies: set[int]) -> np.ndarray:

@@ -41,7 +41,7 @@ import numpy as np
 
 from vpro_assets.core import seeding
 from vpro_assets.core.errors import VProError
-from vpro_assets.core.mjgeom import quat_mul
+from vpro_assets.core.mjgeom import quat_mul, subtree
 from vpro_assets.scene import sim
 from vpro_assets.scene.pose import INVERT, class_quat
 from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
@@ -177,7 +177,7 @@ def _clear_of_set_parts(env, variant: SceneVariant, margin: float = 0.003, round
     parts: set[int] = set()
     for js in variant.joints:
         root = int(m.jnt_bodyid[raw.sim.model.joint_name2id(js.joint)])
-        parts |= {b for b in range(m.nbody) if b == root or _has_ancestor(m, b, root)}
+        parts |= set(subtree(m, root))
     objects = {
         int(m.body_rootid[raw.sim.model.body_name2id(obj.root_body)]): obj.joints[-1]
         for obj in raw.objects_dict.values()
@@ -218,7 +218,7 @@ def _draw_joint(env, js: JointSetting, rng: np.random.Generator) -> None:
     raw = sim.raw(env)
     model, data = raw.sim.model._model, raw.sim.data._data
     part = int(model.jnt_bodyid[raw.sim.model.joint_name2id(js.joint)])
-    moving = {b for b in range(model.nbody) if b == part or _has_ancestor(model, b, part)}
+    moving = set(subtree(model, part))
     fixture = int(model.body_rootid[part])
     for _ in range(MAX_DRAWS):
         raw.sim.data.set_joint_qpos(js.joint, rng.uniform(js.low, js.high))
@@ -237,14 +237,6 @@ def _cuts(model, contact, moving: set[int], fixture: int) -> bool:
     b1, b2 = int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])
     for inside, other in ((b1, b2), (b2, b1)):
         if inside in moving and other not in moving and int(model.body_rootid[other]) == fixture:
-            return True
-    return False
-
-
-def _has_ancestor(m, body: int, ancestor: int) -> bool:
-    while body > 0:
-        body = int(m.body_parentid[body])
-        if body == ancestor:
             return True
     return False
 

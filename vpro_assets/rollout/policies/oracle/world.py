@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.core.mjgeom import colliding, world_aabb
+from vpro_assets.core.mjgeom import colliding, subtree, world_aabb
 from vpro_assets.libero.env import GRIPPER_PREFIX
 from vpro_assets.libero.tasks import TaskRecord
 from vpro_assets.perturb.entities import GRIP_SITE, Entity, object_entity
@@ -192,11 +192,7 @@ class World:
 
     def joint_geoms(self, joint: int) -> list[int]:
         """Collision geoms of the body a joint moves and of its descendants."""
-        root = int(self.m.jnt_bodyid[joint])
-        bodies = {root}
-        for b in range(root + 1, self.m.nbody):
-            if self.m.body_parentid[b] in bodies:
-                bodies.add(b)
+        bodies = set(subtree(self.m, int(self.m.jnt_bodyid[joint])))
         return colliding(self.m, [g for g in range(self.m.ngeom) if self.m.geom_bodyid[g] in bodies])
 
     # ---- contacts --------------------------------------------------------------------------------
