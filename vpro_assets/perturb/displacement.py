@@ -175,7 +175,7 @@ class TargetShape:
                 )
                 spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"m{i}")
             else:
-                spec.worldbody.add_geom(type=model.geom_type[g], size=model.geom_size[g])
+                spec.worldbody.add_geom(type=mujoco.mjtGeom(int(model.geom_type[g])), size=model.geom_size[g].tolist())
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         # The compiler re-centres each mesh in its own frame: the geom's pose in the original geom's.
