@@ -21,6 +21,7 @@ slow marker.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 from dataclasses import dataclass
 
@@ -142,8 +143,9 @@ def measure(sim, pert: Contradiction, task: str, step: int) -> Sample:
     )
 
 
-def episode_samples(key: str) -> list[Sample]:
-    """Both cameras' samples along one oracle episode of task `key`."""
+@contextlib.contextmanager
+def contradicted_env(key: str, cameras: tuple[str, ...]):
+    """Task `key`'s env at its first initial state with one position contradiction per camera."""
     task = get_task(key)
     env = make_env(task, RES)
     try:
@@ -152,22 +154,27 @@ def episode_samples(key: str) -> list[Sample]:
         env.set_init_state(libero_init_states(task)[0])
         entities = EntityIndex(env.sim, task)
         perts = []
-        for camera in CAMERAS:
+        for camera in cameras:
             setting = position_setting(camera)
             case_id = f"{key}/{setting.id.removeprefix('vpro/')}"
             pert = Contradiction(case_id, setting.param_dict, task)
             pert.reset(Episode(case_id, 0, task))
             pert.attach(env.sim, entities)
             perts.append(pert)
-        oracle = OracleController(env, task)
+        yield env, OracleController(env, task), perts
+    finally:
+        env.close()
+
+
+def episode_samples(key: str) -> list[Sample]:
+    """Both cameras' samples along one oracle episode of task `key`."""
+    with contradicted_env(key, CAMERAS) as (env, oracle, perts):
         samples = []
         for step in range(STEPS):
             if step % EVERY == 0:
                 samples += [measure(env.sim, pert, key, step) for pert in perts]
             env.step(oracle.action())
         return samples
-    finally:
-        env.close()
 
 
 @functools.cache
@@ -220,18 +227,7 @@ def test_share_scored_by_rays_matches_the_render_on_a_book_of_many_layers():
     of the rendered share on the default grid (measured: at most 0.066, 25 of 33 within 0.03) and
     within 0.04 on the refining grid that decides between the best places (measured: 0.038)."""
     key, camera_name = "libero_10-05", "robot0_eye_in_hand"
-    task = get_task(key)
-    env = make_env(task, RES)
-    try:
-        env.seed(0)
-        env.reset()
-        env.set_init_state(libero_init_states(task)[0])
-        setting = position_setting(camera_name)
-        case_id = f"{key}/{setting.id.removeprefix('vpro/')}"
-        pert = Contradiction(case_id, setting.param_dict, task)
-        pert.reset(Episode(case_id, 0, task))
-        pert.attach(env.sim, EntityIndex(env.sim, task))
-        oracle = OracleController(env, task)
+    with contradicted_env(key, (camera_name,)) as (env, oracle, (pert,)):
         for _ in range(24):
             env.step(oracle.action())
         model, data = pert.index.model, env.sim.data._data
@@ -249,8 +245,6 @@ def test_share_scored_by_rays_matches_the_render_on_a_book_of_many_layers():
                 visibility.share(points, offset) - rendered,
                 visibility.share(points, offset, dp.REFINE_GRID) - rendered,
             )
-    finally:
-        env.close()
     assert len(places) >= 17
     assert max(abs(e) for e, _ in errors.values()) <= 0.07, errors
     assert max(abs(e) for _, e in errors.values()) <= 0.04, errors

@@ -97,9 +97,9 @@ class Contradiction(Perturbation):
             self._scratch = mujoco.MjData(sim.model._model)
             self._joints = entities.articulation_joints()
         if self.attribute == "position":
-            target = self.target
-            self._samples = dp.target_samples(entities.model, target.visual_geoms or target.geoms)
-            self._shape = dp.TargetShape(entities.model, target.visual_geoms or target.geoms)
+            drawn = self.target.visual_geoms or self.target.geoms
+            self._samples = dp.target_samples(entities.model, drawn)
+            self._shape = dp.TargetShape(entities.model, drawn)
             self._geomgroup = render_context(sim).vopt.geomgroup.copy()  # what the cameras draw
             self._previous, self.last_choice = None, None
 
