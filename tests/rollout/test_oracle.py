@@ -19,6 +19,7 @@ from vpro_assets.libero.env import NOOP_ACTION
 from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.episode import EpisodeSettings, run_episode
 from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, motion, swing
+from vpro_assets.rollout.policies.oracle import grasp as grasp_mod
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, above, narrowest, pick, plan_grasp, reach_height
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
@@ -100,6 +101,7 @@ def test_closed_microwave_case_solved_within_libero_10_limit(trial):
         "libero_object-03/task_precondition_variation/object_pose-v1",
         "libero_10-00/target_geometry_variation/twist-s3-v2",  # a twisted can pinched at its narrower top
         "libero_object-00/target_geometry_variation/taper-s3-v1",  # 8.2 cm across its hulls: pinched at its 5 cm top
+        "libero_10-02/target_geometry_variation/asymmetric-s3-v1",  # a shell of pieces: taken by its handle
     ],
 )
 def test_deformed_or_reposed_target_lifted_and_placed(case_id):
@@ -138,6 +140,50 @@ def test_narrowest_width_of_a_turned_box_and_the_top_of_a_tapered_solid():
     assert narrowest(frustum)[1] == pytest.approx(0.082)
     assert narrowest(above([frustum], 0.07))[1] == pytest.approx(0.054)
     assert len(above([frustum], 0.09)) == 0
+
+
+def _box(lo, hi):
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+
+
+def test_handle_of_a_shell_of_convex_pieces_found_past_a_piece_bridging_it_to_the_lid():
+    """A deformed moka pot as coacd leaves it: a shell of small wall pieces (radius 4.5 cm), a lid,
+    and a C-shaped handle 1.5 cm thick sticking out 4.5 cm at -y, one convex piece bridging the lid
+    and the handle's top bar (whole, that piece made the part sticking out 4 cm wide and a wall
+    piece was taken for the handle: 0/10). The handle is found at -y however the pot is turned,
+    and where none sticks out (a round shell) none is."""
+    ring = [
+        _box(
+            [0.045 * np.cos(a) - 0.006, 0.045 * np.sin(a) - 0.006, 0.0],
+            [0.045 * np.cos(a) + 0.006, 0.045 * np.sin(a) + 0.006, 0.13],
+        )
+        for a in np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    ]
+    lid = [_box([-0.04, -0.04, 0.12], [0.04, 0.04, 0.135])]
+    handle_ = [
+        _box([-0.0075, -0.09, 0.04], [0.0075, -0.08, 0.125]),  # outer bar
+        _box([-0.0075, -0.09, 0.04], [0.0075, -0.05, 0.05]),  # lower arm
+        _box([-0.0075, -0.09, 0.115], [0.0075, -0.05, 0.125]),  # top arm
+    ]
+    # A wedge from the lid (7 cm across) to the handle's top arm (1.5 cm).
+    bridge = [
+        np.array(
+            [
+                [x * w, y, z]
+                for x, y, w in [(1, -0.02, 0.035), (-1, -0.02, 0.035), (1, -0.085, 0.0075), (-1, -0.085, 0.0075)]
+                for z in (0.115, 0.13)
+            ]
+        )
+    ]
+    pot = ring + lid + handle_ + bridge
+    assert grasp_mod.handle(ring + lid) is None
+    for yaw in (0.0, 0.7, 2.5):
+        turn = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
+        found = grasp_mod.handle([h @ turn.T for h in pot])
+        assert found is not None and found @ (turn @ [0, -1, 0]) > np.cos(np.radians(15)), yaw
+        part = grasp_mod.outer_part([h @ turn.T for h in pot], turn @ [0, -1, 0])
+        assert np.ptp(part[:, :2] @ (turn @ [1, 0, 0])[:2]) < grasp_mod.HANDLE_MAX_M  # the bridge cut there
+    assert np.ptp(bridge[0][:, 0]) > grasp_mod.HANDLE_MAX_M
 
 
 def test_solid_pinch_turns_the_hand_away_from_a_standing_neighbour(scene):

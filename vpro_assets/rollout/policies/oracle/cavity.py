@@ -19,7 +19,7 @@ import numpy as np
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
-from vpro_assets.rollout.policies.oracle.grasp import HAND_PARTS, outer_part_grasp, pick
+from vpro_assets.rollout.policies.oracle.grasp import HAND_PARTS, handle, pick
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.pick_place import carry
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
@@ -34,7 +34,6 @@ BEHIND_FRONT_M = 0.008  # the object's front this far behind the front face
 PUSH_TILT_RAD = 0.6  # fingertips lead the wrist by about 6 cm into the mouth
 PUSH_HEIGHT_M = 0.025  # fingertips this far above the floor while pushing
 PUSH_STEP_M = 0.01
-HANDLE_SEARCH_DEG = 5.0
 TURN_STEPS = 30
 WALL_PROBE_M = 0.06  # a side counts as walled when a geom lies this far past the region's box
 
@@ -104,19 +103,10 @@ def covered(world: World, region: str) -> Cavity | None:
 
 
 def handle_side(world: World, held: str, prefer: np.ndarray) -> np.ndarray:
-    """The horizontal direction of the object's handle (the thin part `grasp.outer_part_grasp` takes,
-    at whatever yaw the object stands): of the directions in HANDLE_SEARCH_DEG steps, the one across
-    which that part is thinnest, the nearest `prefer` of equals; `prefer` when none has one."""
-    best: tuple[float, float, np.ndarray] | None = None
-    for deg in np.arange(0.0, 360.0, HANDLE_SEARCH_DEG):
-        ang = np.radians(deg)
-        d = np.array([np.cos(ang), np.sin(ang), 0.0])
-        grasp = outer_part_grasp(world, held, d)
-        if grasp is not None:
-            key = (round(grasp.width, 3), -float(d @ prefer))
-            if best is None or key < best[:2]:
-                best = (*key, d)
-    return prefer if best is None else best[2]
+    """The horizontal direction of the object's handle (`grasp.handle`), the nearest `prefer` of
+    equals; `prefer` when it has none."""
+    found = handle(world.hulls(held), prefer)
+    return prefer if found is None else found
 
 
 def _signed_angle(a: np.ndarray, b: np.ndarray) -> float:

@@ -38,13 +38,13 @@ ROBOT_BASE_XY = np.array([-0.66, 0.0])  # the arm stands at -x in every LIBERO s
 # 2.6 cm above (robosuite's Panda `hand_collision`).
 HAND_PARTS = ((0.045, 0.01, 0.012, 0.01), (-0.045, 0.01, 0.012, 0.01), (0.0, 0.105, 0.033, -0.026))
 WALL_SIDES = 16  # candidate sides of a wide object's wall
-HANDLE_MAX_M = 0.03  # a handle is thinner than this across
+HANDLE_MAX_M = 0.045  # a handle is thinner than this across (a wall cut OUTER_BAND_M deep is wider)
+HANDLE_DIRECTIONS = 72  # directions searched for a handle, 5 degrees apart
 SOLID_TOP_M = 0.025  # a geom over the centre reaching this close to the top makes the top solid
-HANDLE_LINK_M = 0.03  # thin parts this close together belong to one handle
 HANDLE_MIN_HEIGHT_M = 0.02  # a handle is at least this tall
 NARROW_DEPTH_M = 0.03  # deepest pinch below a solid object's top
 FINGER_PAD_HALF_M = 0.01  # the finger pads reach this far below the grip site
-OUTER_BAND_M = 0.03  # a part sticking out toward a side: geoms this close to the object's farthest one
+OUTER_BAND_M = 0.03  # a part sticking out toward a side: the object this close to its farthest point
 # A foot pinch (`foot_grasp`). The Panda's finger collision meshes reach 9.3 mm below the grip site,
 # 5 mm below the pads, and are about 1.5 cm thick and 2.2 cm wide; one CLOSE action moves the
 # fingers' target opening 1 cm (robosuite: 25 substeps of 1% of the 8 cm range).
@@ -94,17 +94,24 @@ def narrowest(points: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def above(hulls: list[np.ndarray], z: float) -> np.ndarray:
-    """The points bounding the parts of convex hulls (each a point array) above height `z`: their
-    points above it and where their chords cross it."""
+    """The points bounding the parts of convex hulls (each a point array) above height `z`."""
+    return beyond(hulls, np.array([0.0, 0.0, 1.0]), z)
+
+
+def beyond(hulls: list[np.ndarray], direction: np.ndarray, offset: float) -> np.ndarray:
+    """The points bounding the parts of convex hulls (each a point array) beyond `offset` along the
+    unit vector `direction`: their points beyond it and where their chords cross it."""
     out = []
     for pts in hulls:
-        up, down = pts[pts[:, 2] >= z], pts[pts[:, 2] < z]
+        reach = pts @ direction
+        up, down = pts[reach >= offset], pts[reach < offset]
         if not len(up):
             continue
         out.append(up)
         if len(down):
             a, b = np.repeat(up, len(down), axis=0), np.tile(down, (len(up), 1))
-            out.append(a + (b - a) * ((a[:, 2] - z) / (a[:, 2] - b[:, 2]))[:, None])
+            ra, rb = a @ direction, b @ direction
+            out.append(a + (b - a) * ((ra - offset) / (ra - rb))[:, None])
     return np.concatenate(out) if out else np.zeros((0, 3))
 
 
@@ -155,46 +162,42 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
 
 def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
     """A grasp across a handle: a wide object whose top is solid (the wall pinch's inner finger
-    would stand in the object's own geoms, a moka pot) is taken by its thin parts that stick out
-    (collision geoms narrower than HANDLE_MAX_M across, clear of the object's largest geom)."""
+    would stand in the object's own geoms, a moka pot) is taken by its handle (`handle`)."""
     center = (pts.min(0) + pts.max(0)) / 2
-    geoms = world.geoms(instance)
-    boxes = [(g, geom_corners(world.m, world.d, [g])) for g in geoms]
-    top = float(pts[:, 2].max())
+    boxes = [geom_corners(world.m, world.d, [g]) for g in world.geoms(instance)]
     solid_top = any(
         np.all(np.abs((c.min(0) + c.max(0))[:2] / 2 - center[:2]) < (c.max(0) - c.min(0))[:2] / 2)
-        and c.max(0)[2] > top - SOLID_TOP_M
-        for _, c in boxes
+        and c.max(0)[2] > pts[:, 2].max() - SOLID_TOP_M
+        for c in boxes
     )
-    if not solid_top:
-        return None
-    core = max((c for _, c in boxes), key=lambda c: float(np.prod((c.max(0) - c.min(0))[:2])))
-    core_lo, core_hi = core.min(0)[:2], core.max(0)[:2]
-    thin = []
-    for _, c in boxes:
-        size = c.max(0) - c.min(0)
-        outside = np.any(c.min(0)[:2] >= core_hi) or np.any(c.max(0)[:2] <= core_lo)
-        if min(size[0], size[1]) < HANDLE_MAX_M and outside:
-            thin.append(c)
-    if not thin:
-        return None
-    # Group the thin parts (a handle is several boxes) and take the tallest group (the handle, not a spout).
-    groups: list[list[np.ndarray]] = []
-    for c in sorted(
-        thin, key=lambda c: float(np.linalg.norm((c.min(0) + c.max(0))[:2] / 2 - center[:2])), reverse=True
-    ):
-        mid = (c.min(0) + c.max(0)) / 2
-        for group in groups:
-            if any(np.linalg.norm(mid[:2] - (o.min(0) + o.max(0))[:2] / 2) < HANDLE_LINK_M for o in group):
-                group.append(c)
-                break
-        else:
-            groups.append([c])
-    part = max((np.concatenate(g) for g in groups), key=lambda p: float(p[:, 2].max() - p[:, 2].min()))
-    size = part.max(0) - part.min(0)
-    if size[2] < HANDLE_MIN_HEIGHT_M or min(size[0], size[1]) > MAX_PINCH_M:
-        return None  # a flange of a deformed mesh's convex pieces, or a ring of walls: no handle
-    return _pinch_across(part)
+    toward = handle(world.hulls(instance)) if solid_top else None
+    return None if toward is None else outer_part_grasp(world, instance, toward)
+
+
+def handle(hulls: list[np.ndarray], prefer: np.ndarray | None = None) -> np.ndarray | None:
+    """The horizontal direction of an object's handle (its collision geoms' hulls), at whatever yaw
+    the object stands: of HANDLE_DIRECTIONS directions, the one whose outer part (`outer_part`) is
+    thinnest across it, under HANDLE_MAX_M, and at least HANDLE_MIN_HEIGHT_M tall; of equals, the
+    nearest `prefer`. None when no part is that thin."""
+    best: tuple[float, float, np.ndarray] | None = None
+    for ang in np.linspace(0.0, 2 * np.pi, HANDLE_DIRECTIONS, endpoint=False):
+        d = np.array([np.cos(ang), np.sin(ang), 0.0])
+        part = outer_part(hulls, d)
+        across = float(np.ptp(part[:, :2] @ [-d[1], d[0]]))
+        if across >= HANDLE_MAX_M or np.ptp(part[:, 2]) < HANDLE_MIN_HEIGHT_M:
+            continue
+        key = (round(across, 3), 0.0 if prefer is None else -float(d @ prefer))
+        if best is None or key < best[:2]:
+            best = (*key, d)
+    return None if best is None else best[2]
+
+
+def outer_part(hulls: list[np.ndarray], toward: np.ndarray) -> np.ndarray:
+    """The points of an object (its collision geoms' hulls) within OUTER_BAND_M of its farthest
+    point toward `toward` (a horizontal unit vector): the hulls cut there, not whole (a convex piece
+    of a deformed moka pot bridges its lid and its handle: whole, it made the handle 4 cm wide)."""
+    far = max(float((h @ toward).max()) for h in hulls)
+    return beyond(hulls, toward, far - OUTER_BAND_M)
 
 
 def _clear_pinch(world: World, instance: str, pts: np.ndarray, z: float) -> Grasp | None:
@@ -291,12 +294,10 @@ def _foot_band(foot: np.ndarray, cuts: list[np.ndarray], axis: np.ndarray) -> fl
 
 
 def outer_part_grasp(world: World, instance: str, toward: np.ndarray) -> Grasp | None:
-    """A grasp across the object's thin part that sticks out farthest toward `toward` (a mug's
-    handle): its collision geoms within OUTER_BAND_M of its farthest point that way, when they are
-    thinner than HANDLE_MAX_M across `toward`; the fingers close across it, at its middle."""
-    boxes = [geom_corners(world.m, world.d, [g]) for g in world.geoms(instance)]
-    reach = [float(((b.min(0) + b.max(0)) / 2)[:2] @ toward[:2]) for b in boxes]
-    part = np.concatenate([b for b, r in zip(boxes, reach, strict=True) if r >= max(reach) - OUTER_BAND_M])
+    """A grasp across the object's thin part that sticks out farthest toward `toward` (a handle,
+    `outer_part`), when it is thinner than HANDLE_MAX_M across `toward`; the fingers close across
+    it, at its middle."""
+    part = outer_part(world.hulls(instance), toward)
     across = np.array([-toward[1], toward[0], 0.0])
     along, side = part[:, :2] @ toward[:2], part[:, :2] @ across[:2]
     if np.ptp(side) >= HANDLE_MAX_M:
