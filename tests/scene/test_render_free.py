@@ -1,11 +1,12 @@
 """Scene build and validation without a renderer (`vpro_assets.libero.physics`): the same bytes as
-the committed lock, no GL context anywhere, and the physics-only step and the model cache equal
-to robosuite's own step and compile, bit for bit."""
+the committed lock, no GL context anywhere, the physics-only step and the model cache equal to
+robosuite's own step and compile, bit for bit, and a model without textures (its memory)."""
 
 from __future__ import annotations
 
 import contextlib
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -57,8 +58,9 @@ def test_render_free_build_matches_the_lock_and_validation_needs_no_renderer(tmp
         env = sim.physics_env(str(build.built_case(CASE)["bddl"]))
         try:
             assert not sim.raw(env).has_offscreen_renderer and sim.raw(env).sim._render_context_offscreen is None
+            assert sim.raw(env).sim.model._model.ntex == 0  # the build's env: no texture data
         finally:
-            env.close()
+            sim.close(env)
         v = validate_case(case)
     assert v.ok, v.problems
 
@@ -108,3 +110,45 @@ def test_render_free_episode_env_resets_without_compiling():
     finally:
         env.close()
     assert physics.COUNTERS.compiles - compiles == 1 and physics.COUNTERS.cache_hits - hits == 2
+
+
+# What a model without textures may differ in from MuJoCo's own compile: the textures, the
+# materials' references to them, and where names sit in the names buffer (texture names are gone).
+TEXTURE_FIELDS = ("tex_", "mat_texid", "name_", "names", "_sizes")
+
+
+def test_render_free_model_has_no_textures_and_the_same_physics():
+    """The render-free env compiles its scene without textures (two thirds of a LIBERO scene model's
+    memory); every other array of the model, and every name, is what MuJoCo's own compile of the
+    same MJCF gives. `fresh` (what `vpro validate` reads back through mj_saveLastXML) keeps them."""
+    task = get_task("libero_goal-03")
+    bddl = str(libero_bridge.bddl_path(task.suite, task.name))
+    env = sim.physics_env(bddl)
+    try:
+        assert sim.raw(env).sim.model._model.ntex == 0
+        xml = sim.raw(env).model.get_xml()  # the MJCF text robosuite compiles
+    finally:
+        sim.close(env)
+    bare, full = physics.physics_model(xml), mujoco.MjModel.from_xml_string(xml)
+    assert bare.ntex == 0 and bare.tex_data.size == 0 and (bare.mat_texid < 0).all()
+    assert full.ntex > 0 and full.tex_data.size > bare.nbuffer  # the textures were most of it
+    arrays = [n for n in dir(full) if isinstance(getattr(full, n), np.ndarray) and not n.startswith(TEXTURE_FIELDS)]
+    assert len(arrays) > 300
+    differ = [n for n in arrays if getattr(full, n).tobytes() != getattr(bare, n).tobytes()]
+    assert not differ
+    obj = mujoco.mjtObj
+    for kind, count in (
+        (obj.mjOBJ_BODY, "nbody"),
+        (obj.mjOBJ_GEOM, "ngeom"),
+        (obj.mjOBJ_JOINT, "njnt"),
+        (obj.mjOBJ_SITE, "nsite"),
+        (obj.mjOBJ_MATERIAL, "nmat"),
+        (obj.mjOBJ_ACTUATOR, "nu"),
+    ):
+        names = [mujoco.mj_id2name(full, kind, i) for i in range(getattr(full, count))]
+        assert [mujoco.mj_id2name(bare, kind, i) for i in range(getattr(bare, count))] == names
+    env = sim.physics_env(bddl, fresh=True)
+    try:
+        assert sim.raw(env).sim.model._model.ntex == full.ntex
+    finally:
+        sim.close(env)

@@ -10,7 +10,8 @@ control step without robosuite's repeated forward passes.
   model compiled before (`mj_copyModel`: the same bytes as a new compile, so the same physics),
   and the fixture placement LIBERO writes into the model at each reset lands on a fresh copy,
   exactly as on a fresh compile. The same BDDL gives the same MJCF, so the trials of a case and
-  the reset after construction reuse one compile.
+  the reset after construction reuse one compile. These compiles leave the textures out
+  (`physics_model`): no pixel is drawn, and they were two thirds of a scene model's memory.
 - Split substeps: robosuite's control step runs, in each of its 25 substeps, mj_forward, the
   controllers (whose `update` runs mj_forward again) and mj_step (a third forward inside): MuJoCo's
   position and velocity stages three times on the same state. The controllers read only those
@@ -54,7 +55,7 @@ from vpro_assets.libero import bridge as libero_bridge
 
 log = logging.getLogger(__name__)
 
-MODEL_CACHE_SIZE = 1  # compiled models kept per process: a LIBERO scene model is ~200 MB (textures)
+MODEL_CACHE_SIZE = 1  # compiled models kept per process: a LIBERO scene model is 70-120 MB without textures
 
 
 @dataclass
@@ -132,7 +133,9 @@ def compiled_model(xml: str, fresh: bool = False) -> mujoco.MjModel:
         COUNTERS.cache_hits += 1
         return copy.copy(cached)  # mj_copyModel
     started = time.perf_counter()
-    model = mujoco.MjModel.from_xml_string(xml)
+    # fresh: `vpro validate` reads the scene back through mj_saveLastXML, which needs MuJoCo's own
+    # XML load (it keeps the parsed spec); robosuite's path (reference()) compiles as robosuite does.
+    model = mujoco.MjModel.from_xml_string(xml) if fresh or not _FAST[0] else physics_model(xml)
     COUNTERS.compiles += 1
     COUNTERS.compile_seconds += time.perf_counter() - started
     if _FAST[0]:
@@ -140,6 +143,19 @@ def compiled_model(xml: str, fresh: bool = False) -> mujoco.MjModel:
         while len(_MODELS) > MODEL_CACHE_SIZE:
             _MODELS.popitem(last=False)
     return model
+
+
+def physics_model(xml: str) -> mujoco.MjModel:
+    """The model of `xml` without its textures: the physics reads none of them, and a LIBERO
+    scene's textures are two thirds of its model (136 of 210 MB for libero_goal-03), decoded once
+    more into MuJoCo's asset cache. Compiled from an `MjSpec`, so MuJoCo keeps no copy of the
+    parsed scene for mj_saveLastXML either (its XML load does: about 300 MB more)."""
+    spec = mujoco.MjSpec.from_string(xml)
+    for texture in list(spec.textures):
+        spec.delete(texture)
+    for material in spec.materials:
+        material.textures = [""] * len(material.textures)  # material colours stay: mj_ray reads their alpha
+    return spec.compile()
 
 
 class _CachedMjSim:

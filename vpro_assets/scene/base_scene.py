@@ -78,9 +78,10 @@ class BaseScene:
 BASE_FIXTURE_SEED = 0
 
 
-# Two kept per process: a build worker takes the cases of one task at a time, and each base scene
-# holds its env's MjModel (ray_scene), ~200 MB for a LIBERO scene (8 of them were 1.6 GB per worker).
-@functools.lru_cache(maxsize=2)
+# One kept per process: a build worker takes the cases of one task at a time, and each base scene
+# holds its env's MjModel (ray_scene), 70-120 MB for a LIBERO scene without textures (8 of them,
+# with textures, were 1.6 GB per worker).
+@functools.lru_cache(maxsize=1)
 def base_scene(task_key: str) -> BaseScene:
     task = get_task(task_key)
     path = libero_bridge.bddl_path(task.suite, task.name)
@@ -126,7 +127,7 @@ def base_scene(task_key: str) -> BaseScene:
             gripper_xy=np.mean(grippers, axis=0),
         )
     finally:
-        env.close()
+        sim.close(env)
 
 
 def _sound_rows(env, rows: np.ndarray, count: int, task_key: str) -> list[int]:

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from vpro_assets.core import numerics, paths
+from vpro_assets.core import mjcache, numerics, paths
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import canonical_json, sha256_bytes
@@ -187,7 +187,7 @@ def _trial_states(bddl_path: Path, case: dict, base: BaseScene, variant: SceneVa
                 for k, seed in enumerate(case["trial_seeds"])
             ]
     finally:
-        env.close()
+        sim.close(env)
     return np.stack(rows)
 
 
@@ -215,7 +215,13 @@ def _meta(
     }
 
 
+# MuJoCo's asset cache in a build (or validation) process: the meshes of one scene (124-199 MB
+# decoded, libero_goal-03 to libero_10-09), which its variant envs compile again; 500 MB by default.
+ASSET_CACHE_BYTES = 256 << 20
+
+
 def _worker_init() -> None:
+    mjcache.set_capacity(ASSET_CACHE_BYTES)
     os.environ.setdefault("LP_NUM_THREADS", "1")
     logging.getLogger("robosuite").setLevel(logging.ERROR)
 
@@ -277,6 +283,7 @@ def build(cases: list[dict], jobs: int = 1, force: bool = False, progress: bool 
     bar = tqdm(total=len(cases), unit="case", desc="vpro build", disable=not progress)
     try:
         if jobs <= 1 or len(groups) <= 1:
+            mjcache.set_capacity(ASSET_CACHE_BYTES)  # this process builds, as a worker would
             for group in groups.values():
                 for case in group:
                     _collect(_build_group([case], force), results, bar)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from vpro_assets.core import mjcache
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.mjgeom import colliding, geom_corners, quat_matrix
 from vpro_assets.libero import bridge as libero_bridge
@@ -161,22 +162,25 @@ def object_file(category: str) -> str:
 @functools.cache
 def pool() -> dict[str, PoolObject]:
     out = {}
-    for name in movable_categories():
-        if name not in SEMANTICS:
-            raise VProError(
-                f"LIBERO object {name!r} has no entry in the distractor pool's semantic table "
-                "(vpro_assets/scene/pool.py SEMANTICS)"
+    # Each object is compiled once here: MuJoCo's asset cache would keep their decoded textures
+    # (500 MB of them) for compiles that never come.
+    with mjcache.capacity(mjcache.SMALLEST):
+        for name in movable_categories():
+            if name not in SEMANTICS:
+                raise VProError(
+                    f"LIBERO object {name!r} has no entry in the distractor pool's semantic table "
+                    "(vpro_assets/scene/pool.py SEMANTICS)"
+                )
+            probe = libero_bridge.libero_envs().OBJECTS_DICT[name](name=f"vpro_probe_{name}")
+            extents, color, placed = measure_mjcf(probe.file, class_quat(probe))
+            out[name] = PoolObject(
+                name,
+                *SEMANTICS[name],
+                extents=extents,
+                color=color,
+                footprint=(round(float(placed[0]), 5), round(float(placed[1]), 5)),
+                height=round(float(placed[2]), 5),
             )
-        probe = libero_bridge.libero_envs().OBJECTS_DICT[name](name=f"vpro_probe_{name}")
-        extents, color, placed = measure_mjcf(probe.file, class_quat(probe))
-        out[name] = PoolObject(
-            name,
-            *SEMANTICS[name],
-            extents=extents,
-            color=color,
-            footprint=(round(float(placed[0]), 5), round(float(placed[1]), 5)),
-            height=round(float(placed[2]), 5),
-        )
     return out
 
 

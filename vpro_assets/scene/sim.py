@@ -27,13 +27,22 @@ DRIFT_TOL = 0.01  # m: validation: one second of zero actions moves no object fu
 
 
 def physics_env(bddl_file: str, fresh: bool = False):
-    """LIBERO's ControlEnv for a BDDL file, without cameras or renderer (physics only; its reset
-    reuses the model compiled at construction: `vpro_assets.libero.physics`). `fresh`: compiled
-    at construction even where the same MJCF was compiled before in this process."""
+    """LIBERO's ControlEnv for a BDDL file, without cameras, renderer or textures (physics only;
+    its reset reuses the model compiled at construction: `vpro_assets.libero.physics`). `fresh`:
+    compiled at construction by MuJoCo's XML load, textures included, even where the same MJCF was
+    compiled before in this process."""
     # ignore_done: building steps one env through many trials, past LIBERO's 1000-step horizon.
     env = physics.physics_env(str(bddl_file), fresh=fresh, ignore_done=True)
     env.reset()
     return env
+
+
+def close(env) -> None:
+    """Close a scene env and drop its compile from the model cache: its resets are done, and no
+    other env of a build has the same MJCF (each case's BDDL is its own), so the cached copy
+    (70-120 MB) would only wait for the next compile to evict it."""
+    env.close()
+    physics.clear_model_cache()
 
 
 def place_fixtures(env, seed: int) -> None:
