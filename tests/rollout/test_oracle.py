@@ -7,6 +7,7 @@ predicate, not the skill's opinion of itself.
 
 import subprocess
 import sys
+from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -21,7 +22,17 @@ from vpro_assets.rollout.episode import EpisodeSettings, run_episode
 from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, motion, swing
 from vpro_assets.rollout.policies.oracle import grasp as grasp_mod
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
-from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, above, narrowest, pick, plan_grasp, reach_height
+from vpro_assets.rollout.policies.oracle.grasp import (
+    MAX_PINCH_M,
+    WITH_WRIST,
+    Grasp,
+    above,
+    narrowest,
+    pick,
+    plan_grasp,
+    reach_height,
+    side_entry,
+)
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.plan import plan
 from vpro_assets.rollout.policies.oracle.policy import OracleController, OraclePolicy, libero_holds
@@ -213,6 +224,54 @@ def test_drawer_opens_past_libero_open_threshold_then_closes_fully_home(scene):
     s.run(drawer.close(s.world, region), limit=300)
     assert s.world.qpos(joint) > 0.0  # LIBERO: closed above 0
     assert s.holds(("close", region))
+
+
+def test_side_entry_shifts_the_hand_along_the_wall_until_it_comes_down_beside_the_overhang():
+    """A wall pinch at the origin, fingers closing along x, under an overhang over the palm's inner
+    end (x from 9.5 cm, y up to 0, its bottom above the palm's top: the hand fits under it but cannot
+    come down through it): the hand comes down 3.5 cm along y (the palm is 3.3 cm half wide; the wrist,
+    9 cm along x, is clear of it; the other way the overhang reaches 10 cm) and slides in. Nothing
+    over the hand, or a pinch that is not a wall's: no shift."""
+    grasp = Grasp(np.array([0.0, 0.0, 0.02]), np.array([1.0, 0.0, 0.0]), 0.024, rim=True)
+    overhang = np.array([[[0.095, -0.1, 0.15], [0.2, 0.0, 0.2]]])
+    assert reach_height(overhang, grasp.point, grasp.axis, WITH_WRIST) > grasp.point[2]
+    np.testing.assert_allclose(side_entry(overhang, grasp), [0.0, 0.035, 0.0], atol=1e-9)
+    assert not side_entry(overhang + [0.03, 0.0, 0.0], grasp).any()  # past the palm's end: straight down
+    assert not side_entry(overhang, replace(grasp, rim=False)).any()
+
+
+@pytest.mark.parametrize("trial", [4, 6])
+def test_bowl_under_the_opened_drawer_is_taken_from_beside_it(scene, trial):
+    """libero_goal-03 ("open the top drawer and put the bowl inside"): once open, the drawer's front
+    stands 10 cm over the bowl's rim, over part of it. The drawer opens in under 130 steps (the hand
+    turns on its way to the handle and lets go of it in 4 steps). The wall pinch is then one the hand
+    and its wrist reach down to, straight (trial 6: not the side where the wrist meets the drawer's
+    front) or beside it, sliding in along the wall (trial 4: the palm's end under the drawer), and the
+    bowl comes up."""
+    s = scene("libero_goal-03/normal", trial)
+    region, bowl = "wooden_cabinet_1_top_region", "akita_black_bowl_1"
+    steps = s.run(drawer.open_(s.world, region), limit=130)
+    assert s.holds(("open", region)), steps
+    grasp = plan_grasp(s.world, bowl)
+    boxes = obstacle_boxes(s.world, (bowl,))
+    entry = side_entry(boxes, grasp)
+    assert reach_height(boxes, grasp.point + entry, grasp.axis, WITH_WRIST) <= grasp.point[2]
+    assert entry.any() or trial != 4
+    z0 = s.world.body_pos(bowl)[2]
+    s.run(pick(s.world, bowl), limit=150)
+    assert s.world.body_pos(bowl)[2] - z0 > 0.05 and s.world.held(bowl)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", [0, 4])
+def test_bowl_put_in_the_drawer_that_starts_open_over_it(trial):
+    """libero_goal-03's receptacle-openness case starts the top drawer open over the bowl: the plan
+    does not open it again, and the bowl, taken from beside the drawer, goes in within the suite's
+    300 steps. The scene is built first (a no-op when it is current)."""
+    case_id = "libero_goal-03/task_precondition_variation/receptacle_openness-v1"
+    subprocess.run([sys.executable, "-m", "vpro_assets.cli", "build", "--select", case_id], check=True)
+    row = run_episode(find_case(CATALOG, case_id), trial, OraclePolicy(), EpisodeSettings(render=False))
+    assert row["success"], row
 
 
 def _shut(s: Scene, joint: int, q: float) -> None:

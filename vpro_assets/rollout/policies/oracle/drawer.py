@@ -43,6 +43,8 @@ PRESS_M = 0.03  # dragging, the grip site's goal this far below where it is: the
 PRESS_STEPS = 6
 DRAG_STEP_M = 0.005  # dragging, the grip site's goal this far ahead of it along the axis
 BACK_M = 0.003  # the fingertips this far behind the middle of the handle's top
+VIA_M = 0.04  # a way point is passed once the grip site is this close
+RELEASE_STEPS = 4  # opening, the fingers let go of the handle in this many steps
 SLIP_M = 0.03  # the hand moved this much farther than the drawer: it slid off the handle
 STALL_STEPS, STALL_M = 20, 0.002  # a drawer dragged this long that moved less than this is stuck
 
@@ -76,18 +78,29 @@ def pinch_fits(world: World, joint: Joint) -> bool:
 
 
 def face_handle(
-    world: World, joint: Joint, grip: float, standoff: float, vertical: bool, tilt: float = 0.0
+    world: World,
+    joint: Joint,
+    grip: float,
+    standoff: float,
+    vertical: bool,
+    tilt: float = 0.0,
+    turn_early: bool = False,
 ) -> motion.Posing:
     """Bring the hand, facing the drawer, to `standoff` in front of the handle; the orientation.
     `vertical`: the fingers close vertically (to pinch a horizontal bar); else horizontally, which
     keeps the hand's long side off the table in front of a bottom drawer. `tilt`: the hand points
-    this far (rad) below horizontal."""
+    this far (rad) below horizontal. `turn_early`: the hand turns on its way to the point above the
+    front, passing through it (about 10 steps fewer); else it turns only there (the hand leaning down
+    to push a bottom drawer, turning on the way, stalled against libero_10-03's wine rack)."""
     axis = open_direction(world, joint)
     handle = handle_point(world, joint)
     fingers = np.array([0.0, 0.0, 1.0]) if vertical else np.cross(axis, [0.0, 0.0, 1.0])
     orient = motion.facing(-axis * np.cos(tilt) - np.array([0.0, 0.0, np.sin(tilt)]), fingers, world.eef_mat())
     front = handle + axis * FRONT_M
-    yield from motion.move_to(world, front + [0, 0, ABOVE_M], grip, None, tol=0.015, max_steps=120)
+    if turn_early:
+        yield from motion.move_to(world, front + [0, 0, ABOVE_M], grip, orient, tol=VIA_M, max_steps=120, turn_tol=None)
+    else:
+        yield from motion.move_to(world, front + [0, 0, ABOVE_M], grip, None, tol=0.015, max_steps=120)
     yield from motion.move_to(world, front, grip, orient, tol=0.012, max_steps=120)
     yield from motion.move_to(world, handle + axis * standoff, grip, orient, tol=0.008, max_steps=80, speed=0.5)
     return orient
@@ -111,7 +124,7 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
             yield from drag(world, joint, goal)
             continue
         axis = open_direction(world, joint)
-        orient = yield from face_handle(world, joint, OPEN, 0.0, vertical=True)
+        orient = yield from face_handle(world, joint, OPEN, 0.0, vertical=True, turn_early=True)
         yield from motion.gripper(world, CLOSE, orient=orient)
         travel = abs(joint.open_end - world.qpos(joint.id))
         start = world.eef()
@@ -119,7 +132,8 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
             if world.holds(goal):
                 break
             yield motion.action_to(world, start + axis * (travel + 0.01), CLOSE, orient, speed=0.5)
-        yield from motion.gripper(world, OPEN, orient=orient)
+        # A few steps open the fingers off the handle; they open on while the hand backs away.
+        yield from motion.gripper(world, OPEN, steps=RELEASE_STEPS, orient=orient)
         yield from leave(world, joint, OPEN)
     if not world.holds(goal):
         raise SkillFailed(f"{region} did not open (joint at {world.qpos(joint.id):.3f})")

@@ -37,6 +37,10 @@ ROBOT_BASE_XY = np.array([-0.66, 0.0])  # the arm stands at -x in every LIBERO s
 # out, 1 cm below: what the fingers need to pass beside a bowl's wall); the palm 21 x 6.6 cm,
 # 2.6 cm above (robosuite's Panda `hand_collision`).
 HAND_PARTS = ((0.045, 0.01, 0.012, 0.01), (-0.045, 0.01, 0.012, 0.01), (0.0, 0.105, 0.033, -0.026))
+# With the wrist (robot0_link7, 9 to 16 cm over the grip site, 9 cm to one side along the closing
+# axis, which side depends on the yaw, so both): it meets an opened drawer's front over a bowl.
+WITH_WRIST = (*HAND_PARTS, (0.0, 0.09, 0.044, -0.09))
+PART_TOPS = (0.026, 0.026, 0.124, 0.16)  # each part's top over the grip site
 WALL_SIDES = 16  # candidate sides of a wide object's wall
 HANDLE_MAX_M = 0.045  # a handle is thinner than this across (a wall cut OUTER_BAND_M deep is wider)
 HANDLE_DIRECTIONS = 72  # directions searched for a handle, 5 degrees apart
@@ -56,6 +60,10 @@ FOOT_CLEAR_M = 0.002  # the fingers' footprint starts this far outside the foot
 FOOT_STEP_M = 0.0005
 MIN_FOOT_BAND_M = 0.002  # a foot standing less than this over what is under the fingers is not pinched
 FOOT_SQUEEZE_M = 0.002  # the fingers' target opening at least this far inside the foot (at most 1 cm more)
+# A side entry (`side_entry`): the shifts along the wall tried; sliding in, a hand stopped this many
+# steps by the overhang closes where it is.
+ENTRY_STEP_M, ENTRY_MAX_M = 0.005, 0.06
+ENTRY_STALL_STEPS = 5
 
 
 @dataclass(frozen=True)
@@ -151,13 +159,15 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
         point = center + toward * (proj.max() - WALL_INSET_M)
         point[2] = z
         sides.append(Grasp(point, toward, 2 * WALL_INSET_M, rim=True))  # nearest the robot first
-    reach = [max(z, reach_height(boxes, g.point, g.axis)) for g in sides]
+    reach = [max(z, reach_height(boxes, g.point, g.axis, WITH_WRIST)) for g in sides]
     k = int(np.argmin(np.round(reach, 3)))  # the deepest pinch; of equals, nearest the robot
     if reach[k] <= hi[2] - MIN_RIM_PINCH_M:
         return replace(sides[k], point=np.append(sides[k].point[:2], reach[k]))
-    # No side is free from above (an opened drawer over a bowl): aim at the full depth on the side
-    # with the fewest obstacles where the fingertips come down, and let the hand squeeze past.
-    return min(sides, key=lambda g: blocked_spots(boxes, g))
+    # No side is free from above (an opened drawer over a bowl): aim at the full depth on a side the
+    # hand slides in at (`side_entry`), else on the side with the fewest obstacles where the
+    # fingertips come down, and let the hand squeeze past.
+    entering = [g for g in sides if side_entry(boxes, g).any()]
+    return min(entering or sides, key=lambda g: blocked_spots(boxes, g))
 
 
 def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
@@ -318,21 +328,63 @@ def _pinch_across(part: np.ndarray) -> Grasp:
     return Grasp(point, axis, float(min(size[0], size[1])), rim=False)
 
 
-def reach_height(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray) -> float:
-    """Lowest grip-site height at which the open hand, coming down over `point` with its fingers
-    closing along `axis`, touches no obstacle (boxes: (N, 2, 3) world boxes): each part of the hand
-    (HAND_PARTS: the two fingers, the palm) stops on the highest top under its footprint."""
+Parts = tuple[tuple[float, float, float, float], ...]
+
+
+def _under_parts(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray, parts: Parts) -> list[np.ndarray]:
+    """For each of `parts` (as HAND_PARTS), which boxes ((N, 2, 3) world boxes) its footprint
+    overlaps, the hand pointing down over `point` with its fingers closing along `axis`."""
     across = np.array([-axis[1], axis[0]])
     rel = (boxes[:, 0, :2] + boxes[:, 1, :2]) / 2 - point[:2]
     half = (boxes[:, 1, :2] - boxes[:, 0, :2]) / 2
     along_c, across_c = rel @ axis[:2], rel @ across
     along_r, across_r = half @ np.abs(axis[:2]), half @ np.abs(across)
+    return [
+        (np.abs(along_c - offset) <= half_along + along_r) & (np.abs(across_c) <= half_across + across_r)
+        for offset, half_along, half_across, _ in parts
+    ]
+
+
+def reach_height(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray, parts: Parts = HAND_PARTS) -> float:
+    """Lowest grip-site height at which the open hand, coming down over `point` with its fingers
+    closing along `axis`, touches no obstacle (boxes: (N, 2, 3) world boxes): each part of the hand
+    (HAND_PARTS: the two fingers, the palm; WITH_WRIST: and the wrist) stops on the highest top
+    under its footprint."""
     z = -np.inf
-    for offset, half_along, half_across, below in HAND_PARTS:
-        under = (np.abs(along_c - offset) <= half_along + along_r) & (np.abs(across_c) <= half_across + across_r)
+    for under, (*_, below) in zip(_under_parts(boxes, point, axis, parts), parts, strict=True):
         if under.any():
             z = max(z, float(boxes[under, 1, 2].max()) + below)
     return z
+
+
+def _hand_fits(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray) -> bool:
+    """Whether the open hand and the wrist, the grip site at `point`, are clear of every box: each
+    part between its bottom and its top (PART_TOPS)."""
+    unders = _under_parts(boxes, point, axis, WITH_WRIST)
+    for under, (*_, below), top in zip(unders, WITH_WRIST, PART_TOPS, strict=True):
+        hit = under & (boxes[:, 1, 2] > point[2] - below) & (boxes[:, 0, 2] < point[2] + top)
+        if hit.any():
+            return False
+    return True
+
+
+def side_entry(boxes: np.ndarray, grasp: Grasp) -> np.ndarray:
+    """Where the open hand comes down beside a wall pinch it cannot come straight down on (an opened
+    drawer's front 10 cm over a bowl's rim, over the palm's inner end): the shortest shift along the
+    wall (across the closing axis, so the wall stays between the fingers) where nothing stops the
+    hand at the grasp's height, from which it slides in, the palm under the overhang. Zero when the
+    hand comes straight down, or when no shift does."""
+    none = np.zeros(3)
+    if reach_height(boxes, grasp.point, grasp.axis, WITH_WRIST) <= grasp.point[2] or not grasp.rim:
+        return none
+    across = np.array([-grasp.axis[1], grasp.axis[0], 0.0])
+    for dist in np.arange(ENTRY_STEP_M, ENTRY_MAX_M + 1e-9, ENTRY_STEP_M):
+        for shift in (across * dist, -across * dist):
+            point = grasp.point + shift
+            clear = reach_height(boxes, point, grasp.axis, WITH_WRIST) <= grasp.point[2]
+            if clear and _hand_fits(boxes, point, grasp.axis):
+                return shift
+    return none
 
 
 def blocked_spots(boxes: np.ndarray, grasp: Grasp) -> int:
@@ -367,14 +419,21 @@ def pick(world: World, instance: str, attempts: int = 3, toward: np.ndarray | No
         grasp = plan_grasp(world, instance, toward)
         orient = grasp_orientation(world, grasp.axis)
         start_z = world.body_pos(instance)[2]
-        above = grasp.point + [0, 0, HOVER_M]
+        entry = side_entry(obstacle_boxes(world, (instance,)), grasp)
+        above = grasp.point + entry + [0, 0, HOVER_M]
         above[2] = max(above[2], world.eef()[2] if attempt == 0 else above[2])
         yield from motion.move_to(world, above, OPEN, orient, tol=0.015, max_steps=150)
-        yield from motion.move_to(world, grasp.point + [0, 0, HOVER_M], OPEN, orient, tol=0.01, max_steps=60)
+        yield from motion.move_to(world, grasp.point + entry + [0, 0, HOVER_M], OPEN, orient, tol=0.01, max_steps=60)
         if grasp.squeeze_to is None:
             world.hold_grip = CLOSE
-            yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.006, max_steps=80, speed=0.6)
+            yield from motion.move_to(world, grasp.point + entry, OPEN, orient, tol=0.006, max_steps=80, speed=0.6)
+            if entry.any():  # slide in under the overhang, and after the close, back out with the object
+                yield from motion.move_to(
+                    world, grasp.point, OPEN, orient, tol=0.006, max_steps=60, speed=0.4, stall_steps=ENTRY_STALL_STEPS
+                )
             yield from motion.gripper(world, CLOSE, orient=orient)
+            if entry.any():
+                yield from motion.move_to(world, world.eef() + entry, CLOSE, orient, tol=0.006, max_steps=60, speed=0.4)
         else:
             world.hold_grip = 0.0  # keep the fingers' target where the gentle close leaves it
             yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.001, max_steps=120, speed=0.4)

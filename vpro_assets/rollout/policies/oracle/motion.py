@@ -27,6 +27,7 @@ ROT_GAIN = 1.0
 OPEN, CLOSE = -1.0, 1.0
 GRIPPER_STEPS = 12  # control steps for the fingers to close or open
 TOL_M = 0.008
+TURN_TOL = 0.05  # rad
 STALL_M = 0.003  # a move has stalled when the grip site moved less than this in its stall steps
 DOWN = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # grip site pointing down, fingers along world y
 
@@ -85,15 +86,17 @@ def move_to(
     speed: float = 1.0,
     strict: bool = False,
     stall_steps: int | None = None,
+    turn_tol: float | None = TURN_TOL,
 ) -> Actions:
-    """Drive the grip site to `goal` (within `tol`); gives up after `max_steps` (SkillFailed when
-    `strict`), or with `stall_steps`, once the grip site moved less than STALL_M in that many steps
-    (the hand resting on something: a door's edge under the palm)."""
+    """Drive the grip site to `goal` (within `tol`) and the hand to `orient` (within `turn_tol`
+    rad; None: a way point, passed whatever the turn still to go); gives up after `max_steps`
+    (SkillFailed when `strict`), or with `stall_steps`, once the grip site moved less than STALL_M
+    in that many steps (the hand resting on something: a door's edge under the palm)."""
     goal = np.asarray(goal, dtype=float)
     trail: list[np.ndarray] = []
     for _ in range(max_steps):
         if np.linalg.norm(goal - world.eef()) < tol and (
-            orient is None or np.linalg.norm(rotation_error(world.eef_mat(), orient)) < 0.05
+            orient is None or turn_tol is None or np.linalg.norm(rotation_error(world.eef_mat(), orient)) < turn_tol
         ):
             return
         trail.append(world.eef())
