@@ -24,15 +24,14 @@ from vpro_assets.rollout.policies.oracle import grasp as grasp_mod
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import (
     MAX_PINCH_M,
-    WITH_WRIST,
     Grasp,
     above,
     narrowest,
     pick,
     plan_grasp,
-    reach_height,
     side_entry,
 )
+from vpro_assets.rollout.policies.oracle.hand import WITH_WRIST, reach_height
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.plan import plan
 from vpro_assets.rollout.policies.oracle.policy import OracleController, OraclePolicy, libero_holds

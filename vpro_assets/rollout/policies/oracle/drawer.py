@@ -25,7 +25,7 @@ import numpy as np
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import Joint, joint_for
-from vpro_assets.rollout.policies.oracle.grasp import HAND_PARTS
+from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 

@@ -19,6 +19,7 @@ import numpy as np
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.clearance import lift_clear, obstacle_boxes
+from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS, WITH_WRIST, hand_fits, reach_height
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
@@ -32,15 +33,6 @@ LIFT_M = 0.10  # lift after closing, before any carry
 MIN_LIFT_M = 0.02  # the object counts as lifted when it rose this much
 TABLE_CLEARANCE_M = 0.008  # grip site at least this high above the object's bottom
 ROBOT_BASE_XY = np.array([-0.66, 0.0])  # the arm stands at -x in every LIBERO scene
-# The open hand around its grip site: (centre along the closing axis, half length along it, half
-# width across, height of the part's bottom below the grip site). The fingertips' spots (4.5 cm
-# out, 1 cm below: what the fingers need to pass beside a bowl's wall); the palm 21 x 6.6 cm,
-# 2.6 cm above (robosuite's Panda `hand_collision`).
-HAND_PARTS = ((0.045, 0.01, 0.012, 0.01), (-0.045, 0.01, 0.012, 0.01), (0.0, 0.105, 0.033, -0.026))
-# With the wrist (robot0_link7, 9 to 16 cm over the grip site, 9 cm to one side along the closing
-# axis, which side depends on the yaw, so both): it meets an opened drawer's front over a bowl.
-WITH_WRIST = (*HAND_PARTS, (0.0, 0.09, 0.044, -0.09))
-PART_TOPS = (0.026, 0.026, 0.124, 0.16)  # each part's top over the grip site
 WALL_SIDES = 16  # candidate sides of a wide object's wall
 HANDLE_MAX_M = 0.045  # a handle is thinner than this across (a wall cut OUTER_BAND_M deep is wider)
 HANDLE_DIRECTIONS = 72  # directions searched for a handle, 5 degrees apart
@@ -328,46 +320,6 @@ def _pinch_across(part: np.ndarray) -> Grasp:
     return Grasp(point, axis, float(min(size[0], size[1])), rim=False)
 
 
-Parts = tuple[tuple[float, float, float, float], ...]
-
-
-def _under_parts(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray, parts: Parts) -> list[np.ndarray]:
-    """For each of `parts` (as HAND_PARTS), which boxes ((N, 2, 3) world boxes) its footprint
-    overlaps, the hand pointing down over `point` with its fingers closing along `axis`."""
-    across = np.array([-axis[1], axis[0]])
-    rel = (boxes[:, 0, :2] + boxes[:, 1, :2]) / 2 - point[:2]
-    half = (boxes[:, 1, :2] - boxes[:, 0, :2]) / 2
-    along_c, across_c = rel @ axis[:2], rel @ across
-    along_r, across_r = half @ np.abs(axis[:2]), half @ np.abs(across)
-    return [
-        (np.abs(along_c - offset) <= half_along + along_r) & (np.abs(across_c) <= half_across + across_r)
-        for offset, half_along, half_across, _ in parts
-    ]
-
-
-def reach_height(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray, parts: Parts = HAND_PARTS) -> float:
-    """Lowest grip-site height at which the open hand, coming down over `point` with its fingers
-    closing along `axis`, touches no obstacle (boxes: (N, 2, 3) world boxes): each part of the hand
-    (HAND_PARTS: the two fingers, the palm; WITH_WRIST: and the wrist) stops on the highest top
-    under its footprint."""
-    z = -np.inf
-    for under, (*_, below) in zip(_under_parts(boxes, point, axis, parts), parts, strict=True):
-        if under.any():
-            z = max(z, float(boxes[under, 1, 2].max()) + below)
-    return z
-
-
-def _hand_fits(boxes: np.ndarray, point: np.ndarray, axis: np.ndarray) -> bool:
-    """Whether the open hand and the wrist, the grip site at `point`, are clear of every box: each
-    part between its bottom and its top (PART_TOPS)."""
-    unders = _under_parts(boxes, point, axis, WITH_WRIST)
-    for under, (*_, below), top in zip(unders, WITH_WRIST, PART_TOPS, strict=True):
-        hit = under & (boxes[:, 1, 2] > point[2] - below) & (boxes[:, 0, 2] < point[2] + top)
-        if hit.any():
-            return False
-    return True
-
-
 def side_entry(boxes: np.ndarray, grasp: Grasp) -> np.ndarray:
     """Where the open hand comes down beside a wall pinch it cannot come straight down on (an opened
     drawer's front 10 cm over a bowl's rim, over the palm's inner end): the shortest shift along the
@@ -382,7 +334,7 @@ def side_entry(boxes: np.ndarray, grasp: Grasp) -> np.ndarray:
         for shift in (across * dist, -across * dist):
             point = grasp.point + shift
             clear = reach_height(boxes, point, grasp.axis, WITH_WRIST) <= grasp.point[2]
-            if clear and _hand_fits(boxes, point, grasp.axis):
+            if clear and hand_fits(boxes, point, grasp.axis):
                 return shift
     return none
 
