@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import subprocess
+import sys
 import tempfile
 
 import pytest
@@ -111,3 +113,90 @@ def eval_on_server(tmp_path):
         return ResultsStore(db).episodes(summary.run_id)
 
     return run
+
+
+def catalog_case(case_id: str) -> dict:
+    """A case's record in the committed catalog."""
+    from vpro_assets.benchmark.catalog import find_case, load_catalog
+    from vpro_assets.core import paths
+
+    return find_case(load_catalog(paths.catalog_path()), case_id)
+
+
+def build_scene_case(case_id: str) -> None:
+    """`vpro build --select CASE` (a no-op when the case is current), for the slow tests of built cases."""
+    subprocess.run([sys.executable, "-m", "vpro_assets.cli", "build", "--select", case_id], check=True)
+
+
+def oracle_episode(case_id: str, trial: int, *, build: bool = False) -> dict:
+    """One render-free oracle episode of a case at a trial: its episode row (success, steps, final state)."""
+    from vpro_assets.rollout.episode import EpisodeSettings, run_episode
+    from vpro_assets.rollout.policies.oracle.policy import OraclePolicy
+
+    if build:
+        build_scene_case(case_id)
+    return run_episode(catalog_case(case_id), trial, OraclePolicy(), EpisodeSettings(render=False))
+
+
+class OracleScene:
+    """A render-free env of one case at one trial's initial state, after LIBERO's wait steps: what the
+    oracle's skill tests start from."""
+
+    def __init__(self, case_id: str, trial: int = 0):
+        from vpro_assets.rollout.case_env import env_for_case
+        from vpro_assets.rollout.policies.oracle.policy import libero_holds
+        from vpro_assets.rollout.policies.oracle.world import World
+
+        self.case = catalog_case(case_id)
+        self.cenv = env_for_case(self.case, trial, render=False, reuse=False)
+        self.cenv.reset()
+        self.wait(10)
+        self.holds = libero_holds(self.cenv.env)
+        self.world = World(self.cenv.sim, self.cenv.task, self.holds)
+
+    def wait(self, steps: int) -> None:
+        from vpro_assets.libero.env import NOOP_ACTION
+
+        for _ in range(steps):
+            self.cenv.step(NOOP_ACTION)
+
+    def run(self, actions, limit: int) -> int:
+        """Step the skill's actions to its end (at most `limit`); the steps taken."""
+        for n, action in enumerate(actions, 1):
+            self.cenv.step(action)
+            assert n < limit, f"skill still running after {limit} steps"
+        return n
+
+    def set_joint(self, joint: int, q: float) -> None:
+        """Set a drawer's or door's joint (a closed start, as the precondition cases give it) and settle."""
+        self.cenv.sim.data.qpos[self.world.m.jnt_qposadr[joint]] = q
+        self.cenv.sim.forward()
+        self.wait(5)
+
+    def oracle_until_success(self, limit: int) -> bool:
+        """Run the oracle (plan, skills, replans) from the current state until LIBERO's success."""
+        from vpro_assets.rollout.policies.oracle.policy import OracleController
+
+        controller = OracleController(self.cenv.env, self.cenv.task)
+        for _ in range(limit):
+            self.cenv.step(controller.action())
+            if self.cenv.success():
+                return True
+        return False
+
+    def close(self) -> None:
+        self.cenv.close()
+
+
+@pytest.fixture
+def scene():
+    """`scene(case_id, trial=0)`: an OracleScene, closed after the test."""
+    made: list[OracleScene] = []
+
+    def make(case_id: str, trial: int = 0) -> OracleScene:
+        made.append(OracleScene(case_id, trial))
+        return made[-1]
+
+    yield make
+    for s in made:
+        s.close()

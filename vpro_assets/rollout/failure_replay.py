@@ -4,7 +4,7 @@ episode.
 
 Episodes are deterministic (same seed, same initial state, same actions), so the replay ends in the
 state its row recorded; `reproduced` says whether the final-state fingerprints agree (a render-free
-and a rendered episode end in the same state, `tests/rollout/test_oracle.py`).
+and a rendered episode end in the same state, `tests/rollout/test_oracle_plan.py`).
 """
 
 from __future__ import annotations

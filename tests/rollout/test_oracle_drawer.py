@@ -1,0 +1,63 @@
+"""Drawers opened and closed by their handles along the joint axis, checked with LIBERO's own Open
+and Close predicates (render-free).
+
+Each skill test runs one skill alone from a task's first initial state (the `scene` fixture) and
+checks LIBERO's own predicate, not the skill's opinion of itself.
+"""
+
+import pytest
+from conftest import oracle_episode
+
+from vpro_assets.rollout.policies.oracle import drawer
+from vpro_assets.rollout.policies.oracle.world import SkillFailed
+
+
+def test_drawer_opens_past_libero_open_threshold_then_closes_fully_home(scene):
+    s = scene("libero_goal-00/normal")  # open the middle drawer: its handle is under the top one's
+    region = "wooden_cabinet_1_middle_region"
+    joint = s.world.joint("wooden_cabinet_1_middle_level")
+    assert not s.holds(("open", region))
+    s.run(drawer.open_(s.world, region), limit=250)
+    assert s.world.qpos(joint) < -0.14  # LIBERO's WoodenCabinet: open below -0.14
+    assert s.holds(("open", region)) and s.cenv.success() and not s.holds(("close", region))
+    s.run(drawer.close(s.world, region), limit=300)
+    assert s.world.qpos(joint) > 0.0  # LIBERO: closed above 0
+    assert s.holds(("close", region))
+
+
+def test_low_drawer_opens_by_dragging_its_handle_past_libero_open_threshold(scene):
+    """libero_10-03's bottom drawer, shut: its handle is 4.6 cm over the table, so a pinch closing
+    vertically would put the palm (21 cm along the closing axis) on the table. The closed
+    fingertips press on the handle's top and drag it out instead, the palm clear of the table."""
+    s = scene("libero_10-03/normal")  # the drawer starts open; shut it (LIBERO: closed above 0)
+    region = "white_cabinet_1_bottom_region"
+    joint = s.world.joint("white_cabinet_1_bottom_level")
+    s.set_joint(joint, 0.001)
+    j = drawer.joint_for(s.world, region)
+    assert s.holds(("close", region)) and not drawer.pinch_fits(s.world, j)
+    steps = s.run(drawer.open_(s.world, region), limit=160)
+    assert s.world.qpos(joint) < -0.14, steps  # LIBERO's WhiteCabinet: open below -0.14
+    assert s.holds(("open", region))
+
+
+def test_jammed_drawer_fails_fast(scene):
+    """Shut at 4.5 mm (inside LIBERO's closed range, 0 to 5 mm), the bottom drawer's front is wedged
+    under the cabinet's base plate and does not move: the skill says so instead of pressing on."""
+    s = scene("libero_10-03/normal")
+    region = "white_cabinet_1_bottom_region"
+    joint = s.world.joint("white_cabinet_1_bottom_level")
+    s.set_joint(joint, 0.0045)
+    with pytest.raises(SkillFailed, match="did not open"):
+        s.run(drawer.open_(s.world, region), limit=400)  # two attempts, about 170 steps each
+    assert s.world.qpos(joint) > 0.004
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", [0, 4])
+def test_bowl_put_in_the_drawer_that_starts_open_over_it(trial):
+    """libero_goal-03's receptacle-openness case starts the top drawer open over the bowl: the plan
+    does not open it again, and the bowl, taken from beside the drawer, goes in within the suite's
+    300 steps. The scene is built first (a no-op when it is current)."""
+    case_id = "libero_goal-03/task_precondition_variation/receptacle_openness-v1"
+    row = oracle_episode(case_id, trial, build=True)
+    assert row["success"], row
