@@ -64,8 +64,11 @@ lint: setup
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 
+# Test files spread over both cores (pytest-xdist; a file stays on one worker, so its module
+# fixtures, such as the fork environment, are made once). TEST_WORKERS=0 runs them in one process.
+TEST_WORKERS ?= 2
 test: setup
-	$(VENV)/bin/python -m pytest
+	$(VENV)/bin/python -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 test-slow: setup
 	$(VENV)/bin/python -m pytest -m slow
