@@ -20,6 +20,10 @@ Output layout under `out_dir` (every path below is listed with its sha256 in the
     textures/<texture stem>_<sha>.png          (shared by every object made from one texture)
 with `<name>` = `vpro_<category>_<deformation>_s<severity>_v<setting version>` (the taxonomy's
 GEOMETRY_VERSIONS: a deformation whose map changes gets a new version, the others keep their names).
+A target fitted to an enclosed receptacle (`fit_scale` < 1, a multiple of FIT_STEP chosen by the
+scene generator, `generators/geometry_scene.py`) is the same deformation with the whole mesh then
+scaled uniformly about the bottom of its up axis: an object of its own, `<name>_fit<scale in
+hundredths>`, with `fit_scale` in its input key (unfitted objects keep their names, keys and bytes).
 
 Visual meshes keep the original texture coordinates and carry their normals through the map
 (n' = J^-T n); the collision hulls, the solid and the exports are built from the deformed solid.
