@@ -86,8 +86,10 @@ def _fit(ctx: GenContext, category: str, deformation: str, severity: int) -> tup
     if room is None:
         return 1.0, {}
     reach, height = object_size(model, data, f"{task.target}_main")
+    # The unfitted object's measures: it is shared by the setting's other cases, so it is made
+    # (or found in the cache) anyway; the fitted one is made by the build from this case's variant.
     measures = tg.generate_deformed_object(category, deformation, severity, paths.objects_root()).record["measures"]
-    up = tg.UP_AXES[category]
+    up = tg.up_axis(category)
     height_ratio = float(measures["extent_ratios"][{"x": 0, "y": 1, "z": 2}[up[1]]])
     scale = fit_scale(room, reach, height, float(measures["max_radius_ratio"]), height_ratio)
     return scale, {
