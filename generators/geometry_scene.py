@@ -21,6 +21,10 @@ bound that acts is the reach: libero_10-03's bottom drawer, opened, leaves 5.7 c
 centre before the middle drawer's front and LIBERO's bowl reaches 5.4 cm, so the bowls that reach
 farther (multipeak, twist, asymmetric s2-s3) are scaled to about the original's reach. A fitted
 target is an object of its own (`..._fit85`), so every other case keeps its object and bytes.
+The deformed target's reach and height are estimated as the original's times the deformed solid's
+ratios (`max_radius_ratio`, `extent_ratios` of its record); the built hulls, made from the visual
+mesh, reach about 3 mm farther than LIBERO's collision geoms, so the fitted bowls of libero_10-03
+reach about the room itself, not the room less FIT_MARGIN_M (measured: docs/geometry.md).
 
 The fit is revision "fit1" of these generators for the cases it concerns (those whose goal puts the
 target into an openable fixture, `fits_receptacle`): it enters their input hash, not their files.
