@@ -2,42 +2,124 @@
 object of the geometry pipeline (`vpro_assets.objects.deformed`, which owns meshes, hulls and
 exports). The target keeps its instance name, so the language and goal are unchanged; only its
 category in the BDDL becomes the registered deformed object. Trials start from LIBERO's initial
-state of the same index with the deformed target lowered onto the table at the same place."""
+state of the same index with the deformed target lowered onto the table at the same place.
+
+Fit to an enclosed receptacle. Where the goal puts the target into a region of an openable fixture
+(a drawer of a cabinet, a microwave: LIBERO's receptacles with a ceiling), the deformed target must
+fit that region as the original does. The room is measured on the base scene as compiled
+(`vpro_assets.scene.receptacle`: the height between the floor and the ceiling, and the horizontal
+room about the region's centre where LIBERO's `In` and a policy put the object's body, an opened
+drawer's mouth ending at the fixture's front over it), and so is the original target (its reach
+from its vertical axis, its height). The deformed target may reach and stand at most
+    allowed = max(original's, room - FIT_MARGIN_M)
+along each, so it is never tighter than the original and never closer than FIT_MARGIN_M to the
+receptacle where the original leaves more. Beyond that, the whole deformed mesh is scaled down
+uniformly about the bottom of its axis (`fit_scale`, rounded down to a hundredth): the deformation
+keeps its kind and severity (a multipeak-s3 bowl stays five-lobed with its 18% lobes, relative to
+its radius), only its size goes. Every deformation keeps the height, so in LIBERO's receptacles the
+bound that acts is the reach: libero_10-03's bottom drawer, opened, leaves 5.7 cm about its
+centre before the middle drawer's front and LIBERO's bowl reaches 5.4 cm, so the bowls that reach
+farther (multipeak, twist, asymmetric s2-s3) are scaled to about the original's reach. A fitted
+target is an object of its own (`..._fit85`), so every other case keeps its object and bytes.
+The deformed target's reach and height are estimated as the original's times the deformed solid's
+ratios (`max_radius_ratio`, `extent_ratios` of its record); the built hulls, made from the visual
+mesh, reach about 3 mm farther than LIBERO's collision geoms, so the fitted bowls of libero_10-03
+reach about the room itself, not the room less FIT_MARGIN_M (measured: docs/geometry.md).
+
+The fit is revision "fit1" of these generators for the cases it concerns (those whose goal puts the
+target into an openable fixture, `fits_receptacle`): it enters their input hash, not their files.
+"""
 
 from __future__ import annotations
 
+import math
+
 from vpro_assets.benchmark import taxonomy as tx
+from vpro_assets.core import paths
+from vpro_assets.libero.tasks import get_task
 from vpro_assets.objects import deformed as tg
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
+from vpro_assets.scene.receptacle import Clearance, clearance, object_size
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
+FIT_MARGIN_M = 0.0025  # the room a fitted target leaves where the original leaves more
+# (LIBERO's black bowl in libero_10-03's bottom drawer: 2.9 mm of reach, 6.8 mm of height)
+FIT_REVISION = "fit1"
 
-def _deformed(category: str, deformation: str, severity: int) -> GeneratedObject:
+
+def _deformed(category: str, deformation: str, severity: int, fit_scale: float = 1.0) -> GeneratedObject:
     return GeneratedObject(
-        name=tg.object_name(category, deformation, severity),
+        name=tg.object_name(category, deformation, severity, fit_scale),
         # Returns the pipeline's record (xml_path, and per-stage timings the build adds up).
-        write=lambda root: tg.generate_deformed_object(category, deformation, severity, root),
+        write=lambda root: tg.generate_deformed_object(category, deformation, severity, root, fit_scale=fit_scale),
         template=category,
         shared=True,
     )
 
 
+def fits_receptacle(case: dict) -> bool:
+    """Whether the case's goal puts its target into a region of an openable fixture (the cases the
+    fit concerns); from the task's BDDL alone."""
+    task = get_task(case["task"])
+    openable = {a.name for a in task.articulations if a.kind == "openable"}
+    return task.placement_relation == "in" and task.receptacle in openable
+
+
+def fit_revision(case: dict) -> str:
+    return FIT_REVISION if fits_receptacle(case) else ""
+
+
+def fit_scale(room: Clearance, reach: float, height: float, reach_ratio: float, height_ratio: float) -> float:
+    """The largest multiple of FIT_STEP (at most 1) that scales a deformed target (the original's
+    `reach` and `height` times the deformation's ratios) into what `room` allows (module doc)."""
+    allowed_reach = max(reach, room.radius - FIT_MARGIN_M)
+    allowed_height = max(height, room.height - FIT_MARGIN_M)
+    scale = min(1.0, allowed_reach / (reach * reach_ratio), allowed_height / (height * height_ratio))
+    return math.floor(scale / tg.FIT_STEP + 1e-9) * tg.FIT_STEP if scale < 1.0 else 1.0
+
+
+def _fit(ctx: GenContext, category: str, deformation: str, severity: int) -> tuple[float, dict]:
+    """The fit scale of the case's deformed target and what it was measured from."""
+    task = ctx.task
+    if not fits_receptacle(ctx.case):
+        return 1.0, {}
+    region = f"{task.receptacle}_{task.receptacle_region}"
+    model, data = ctx.base.ray_scene
+    room = clearance(model, data, region)
+    if room is None:
+        return 1.0, {}
+    reach, height = object_size(model, data, f"{task.target}_main")
+    # The unfitted object's measures: it is shared by the setting's other cases, so it is made
+    # (or found in the cache) anyway; the fitted one is made by the build from this case's variant.
+    measures = tg.generate_deformed_object(category, deformation, severity, paths.objects_root()).record["measures"]
+    up = tg.up_axis(category)
+    height_ratio = float(measures["extent_ratios"][{"x": 0, "y": 1, "z": 2}[up[1]]])
+    scale = fit_scale(room, reach, height, float(measures["max_radius_ratio"]), height_ratio)
+    return scale, {
+        "room": {k: round(v, 4) if isinstance(v, float) else v for k, v in room.to_json().items()},
+        "original": {"reach": round(reach, 4), "height": round(height, 4)},
+        "fit_scale": scale,
+    }
+
+
 def _make(deformation: str, severity: int):
     def generate(ctx: GenContext) -> SceneVariant:
         target, category = ctx.task.target, ctx.task.target_category
-        obj = _deformed(category, deformation, severity)
+        scale, fit = _fit(ctx, category, deformation, severity)
+        obj = _deformed(category, deformation, severity, scale)
         objects = [(i, obj.name if i == target else c) for i, c in ctx.base.bddl.objects]
+        fitted = f", scaled {scale:.2f} to fit {fit['room']['region']}" if scale < 1.0 else ""
         return SceneVariant(
             case_id=ctx.case_id,
             generator=f"target_geometry_variation/{deformation}-s{severity}",
-            summary=f"{target} replaced by {obj.name} ({deformation}, severity {severity})",
+            summary=f"{target} replaced by {obj.name} ({deformation}, severity {severity}{fitted})",
             objects=objects,
             fixtures=list(ctx.base.bddl.fixtures),
             init=ctx.init_with(),
             placements=[Placement(target, (0.0, 0.0), keep_xy=True)],
             generated_objects=[obj],
-            details={"target": target, "deformed_object": obj.name},
+            details={"target": target, "deformed_object": obj.name, **({"fit": fit} if fit else {})},
         )
 
     generate.__doc__ = f"The target replaced by its {deformation} deformation at severity {severity}."
@@ -46,4 +128,6 @@ def _make(deformation: str, severity: int):
 
 for _deformation, (_param, _amounts) in tx.GEOMETRY_SEVERITY.items():
     for _severity in range(1, len(_amounts) + 1):
-        register(f"target_geometry_variation/{_deformation}-s{_severity}")(_make(_deformation, _severity))
+        register(f"target_geometry_variation/{_deformation}-s{_severity}", revision=fit_revision)(
+            _make(_deformation, _severity)
+        )

@@ -139,6 +139,21 @@ def deformation_map(
     return warp
 
 
+def scaled(
+    warp: Callable[[np.ndarray], np.ndarray], scale: float, origin: np.ndarray
+) -> Callable[[np.ndarray], np.ndarray]:
+    """`warp` followed by a uniform scaling by `scale` about `origin` (an upright frame's origin,
+    the bottom point of its up axis: the bottom plane and the axis stay where they are)."""
+    if not (isinstance(scale, (int, float)) and np.isfinite(scale) and 0.0 < scale <= 1.0):
+        raise InvalidParameterError(f"fit scale {scale!r} is outside (0, 1]")
+    origin = np.asarray(origin, dtype=np.float64)
+
+    def apply(points: np.ndarray) -> np.ndarray:
+        return origin + float(scale) * (warp(points) - origin)
+
+    return apply
+
+
 def amount_of(deformation: str, params: Mapping[str, object]) -> float:
     """The magnitude of `deformation` from a setting's params (taxonomy's GEOMETRY_SEVERITY names)."""
     name = DEFORMATIONS[deformation][0]

@@ -20,6 +20,10 @@ Output layout under `out_dir` (every path below is listed with its sha256 in the
     textures/<texture stem>_<sha>.png          (shared by every object made from one texture)
 with `<name>` = `vpro_<category>_<deformation>_s<severity>_v<setting version>` (the taxonomy's
 GEOMETRY_VERSIONS: a deformation whose map changes gets a new version, the others keep their names).
+A target fitted to an enclosed receptacle (`fit_scale` < 1, a multiple of FIT_STEP chosen by the
+scene generator, `generators/geometry_scene.py`) is the same deformation with the whole mesh then
+scaled uniformly about the bottom of its up axis: an object of its own, `<name>_fit<scale in
+hundredths>`, with `fit_scale` in its input key (unfitted objects keep their names, keys and bytes).
 
 Visual meshes keep the original texture coordinates and carry their normals through the map
 (n' = J^-T n); the collision hulls, the solid and the exports are built from the deformed solid.
@@ -67,6 +71,7 @@ GENERATOR_VERSION = 1
 # forgotten change: `vpro build` + `vpro catalog verify --artifacts`).
 PIPELINE_ID = "77fb18ff7455813316b98e65742d527946b10dca51682a70b3832d2b17b6dcf0"
 SEVERITIES = (1, 2, 3)
+FIT_STEP = 0.01  # a fit scale is a multiple of this (rounded down by the scene generator)
 # The object's up axis in its own mesh frame once LIBERO places it (measured from LIBERO's scenes
 # with scripts/measure_up_axes.py: every target category of a geometry case).
 UP_AXES: Mapping[str, str] = {
@@ -90,9 +95,21 @@ UP_AXES: Mapping[str, str] = {
 }
 
 
-def object_name(category: str, deformation: str, severity: int) -> str:
-    # The setting's version, so a changed deformation (twist v2) renames only its own objects.
-    return f"vpro_{category}_{deformation}_s{severity}_v{geometry_setting(deformation, severity).version}"
+def object_name(category: str, deformation: str, severity: int, fit_scale: float = 1.0) -> str:
+    # The setting's version, so a changed deformation (twist v2) renames only its own objects; a
+    # fitted object (fit_scale < 1) is another object, named with its scale in hundredths.
+    name = f"vpro_{category}_{deformation}_s{severity}_v{geometry_setting(deformation, severity).version}"
+    return name if fit_scale == 1.0 else f"{name}_fit{check_fit_scale(fit_scale)}"
+
+
+def check_fit_scale(fit_scale: float) -> int:
+    """The fit scale in hundredths; it must be a multiple of FIT_STEP in (0, 1]."""
+    steps = (
+        round(fit_scale / FIT_STEP) if isinstance(fit_scale, (int, float)) and not isinstance(fit_scale, bool) else 0
+    )
+    if not (0 < steps <= round(1 / FIT_STEP) and abs(steps * FIT_STEP - fit_scale) < 1e-9):
+        raise InvalidParameterError(f"fit scale {fit_scale!r} is not a multiple of {FIT_STEP} in (0, 1]")
+    return steps
 
 
 def geometry_setting(deformation: str, severity: int) -> Setting:
@@ -127,8 +144,11 @@ def _versions() -> dict[str, str]:
     return {pkg: version(pkg) for pkg in ("trimesh", "manifold3d", "coacd", "numpy", "usd-core", "mujoco")}
 
 
-def input_key(category: str, deformation: str, severity: int, coacd_params: CoacdParams, xml_path: Path) -> dict:
+def input_key(
+    category: str, deformation: str, severity: int, coacd_params: CoacdParams, xml_path: Path, fit_scale: float = 1.0
+) -> dict:
     setting = geometry_setting(deformation, severity)
+    fit = {} if fit_scale == 1.0 else {"fit_scale": fit_scale}  # unfitted objects keep their keys
     return {
         "generator": GENERATOR,
         "generator_version": GENERATOR_VERSION,
@@ -143,6 +163,7 @@ def input_key(category: str, deformation: str, severity: int, coacd_params: Coac
         "coacd_simplify_fraction": COACD_SIMPLIFY_FRACTION,
         "versions": _versions(),
         "code_sha256": PIPELINE_ID,
+        **fit,
     }
 
 
@@ -159,14 +180,16 @@ def generate_deformed_object(
     *,
     coacd_params: CoacdParams | None = None,
     force: bool = False,
+    fit_scale: float = 1.0,
 ) -> GeneratedObject:
-    """Generate (or reuse, when its inputs are unchanged) the deformed object; see the module doc."""
+    """Generate (or reuse, when its inputs are unchanged) the deformed object, scaled by `fit_scale`
+    (a multiple of FIT_STEP, 1: not fitted); see the module doc."""
     out_dir = Path(out_dir)
     setting = geometry_setting(deformation, severity)
     xml_path = libero_object_xml(category)
     coacd_params = coacd_params or default_coacd_params(category, deformation, severity)
-    key = input_key(category, deformation, severity, coacd_params, xml_path)
-    name = object_name(category, deformation, severity)
+    key = input_key(category, deformation, severity, coacd_params, xml_path, fit_scale)
+    name = object_name(category, deformation, severity, fit_scale)
     if not force:
         cached = load_generated(out_dir, name, key)
         if cached is not None:
@@ -186,6 +209,7 @@ def generate_deformed_object(
             key=key,
             staging=staging,
             out_dir=out_dir,
+            fit_scale=fit_scale,
         )
         publish_dir(staging, out_dir / name)
     except MeshError as exc:

@@ -60,8 +60,15 @@ def repair_solid(category: str, xml_path: Path, up: str) -> Original:
     return Original(source, solid, v0, f0, reports, extent, max_edge, frame)
 
 
-def deform(original: Original, deformation: str, amount: float, what: str, **extra: float) -> Deformed:
+def deform(
+    original: Original, deformation: str, amount: float, what: str, fit_scale: float = 1.0, **extra: float
+) -> Deformed:
+    """Solid and visual meshes through the deformation's map, then (`fit_scale` < 1) scaled uniformly
+    about the bottom point of the up axis: the fit of a target to an enclosed receptacle
+    (`vpro_assets.objects.deformed`), which keeps the deformation's shape and its bottom plane."""
     warp = deform_mod.deformation_map(deformation, amount, original.frame, **extra)
+    if fit_scale != 1.0:
+        warp = deform_mod.scaled(warp, fit_scale, original.frame.origin)
     solid = original.solid.warp_batch(lambda points: warp(np.asarray(points)))
     if solid.status() != manifold3d.Error.NoError or solid.volume() <= 0:
         raise MeshError(f"{what} broke the solid ({solid.status()})")
@@ -73,7 +80,7 @@ def deform(original: Original, deformation: str, amount: float, what: str, **ext
         if normals is not None:
             normals = deform_mod.transform_normals(flat, normals.reshape(-1, 3), warp).reshape(-1, 3, 3)
         visual_parts.append((part, warp(flat).reshape(-1, 3, 3), uv, normals))
-    return Deformed(warp, solid, v1, f1, visual_parts)
+    return Deformed(warp, solid, v1, f1, visual_parts, fit_scale)
 
 
 def convex_hulls(original: Original, deformed: Deformed, coacd_params: CoacdParams, what: str) -> list[trimesh.Trimesh]:
@@ -96,6 +103,7 @@ def build_object(
     key: dict,
     staging: Path,
     out_dir: Path,
+    fit_scale: float = 1.0,
 ) -> GeneratedObject:
     """Run the stages for one object; its folder goes to `staging`, shared textures to `out_dir`."""
     timings: dict[str, float] = {}
@@ -104,7 +112,8 @@ def build_object(
         amount = deform_mod.amount_of(deformation, setting.param_dict)
         extra = deform_mod.extra_params_of(deformation, setting.param_dict)
     with _timed(timings, "deformation"):
-        deformed = deform(original, deformation, amount, f"{category}: {deformation} severity {severity}", **extra)
+        what = f"{category}: {deformation} severity {severity}"
+        deformed = deform(original, deformation, amount, what, fit_scale, **extra)
     with _timed(timings, "coacd"):
         hulls = convex_hulls(original, deformed, coacd_params, f"{category} {deformation} s{severity}")
     with _timed(timings, "write"):
@@ -114,6 +123,8 @@ def build_object(
         check_closed_manifold(*_quantized_arrays(out.solid_bytes), f"{name} solid mesh as written")
         header = {"name": name, "category": category, "deformation": deformation, "severity": severity}
         header |= {"setting": setting.id, "amount": amount, "up_axis": up, "input_key": key}
+        if fit_scale != 1.0:
+            header["fit_scale"] = fit_scale
         record = object_record(header, original, deformed, len(hulls), out, mass)
         files = write_files(name, out, record, staging, out_dir)
     log.info("%s (%d hulls): %s", name, len(hulls), ", ".join(f"{k} {v:.1f}s" for k, v in timings.items()))

@@ -84,7 +84,8 @@ def _rgba(material: dict[str, str]) -> tuple[float, float, float, float] | None:
 
 
 def object_files(name: str, original: Original, deformed: Deformed, out: Files, mass: float) -> Inertial:
-    """Add the MJCF object (sites scaled with the deformed radius), URDF and USD; return the inertial."""
+    """Add the MJCF object (sites scaled with the deformed radius, a fit included; LIBERO's bottom and
+    top sites, which only offset its placement samplers, are kept), URDF and USD; return the inertial."""
     inertial = solid_inertial(mass, deformed.vertices, deformed.faces)
     radius_ratio = _radius_ratio(original, deformed)
     sites = []

@@ -79,3 +79,4 @@ class Deformed:
     vertices: np.ndarray
     faces: np.ndarray
     visual_parts: list[tuple[MeshPart, np.ndarray, np.ndarray | None, np.ndarray | None]]
+    fit_scale: float = 1.0  # uniform scale after the deformation, about the bottom of the up axis (1: none)

@@ -165,7 +165,7 @@ def _write_case(
         for name, data in files.items():
             (tmp / name).write_bytes(data)
         hashes = {name: sha256_bytes(data) for name, data in files.items()}
-        meta = {**_meta(cid, key, generator, base, variant, states), "files": hashes}
+        meta = {**_meta(cid, key, generator, base, variant, states, generator.revision_of(case)), "files": hashes}
         (tmp / paths.SCENE_META).write_text(canonical_json(meta))
         publish_dir(tmp, paths.scene_case_dir(cid))
     except BaseException:
@@ -192,7 +192,13 @@ def _trial_states(bddl_path: Path, case: dict, base: BaseScene, variant: SceneVa
 
 
 def _meta(
-    cid: str, key: str, generator: plugins.Generator, base: BaseScene, variant: SceneVariant, states: np.ndarray
+    cid: str,
+    key: str,
+    generator: plugins.Generator,
+    base: BaseScene,
+    variant: SceneVariant,
+    states: np.ndarray,
+    revision: str = "",
 ) -> dict:
     """meta.json of a case (without its file hashes): inputs, the rule's choices, the states' shape."""
     rows = len(states)
@@ -201,6 +207,7 @@ def _meta(
         "input_hash": key,
         "generator": generator.name,
         "generator_version": generator.version,
+        **({"generator_revision": revision} if revision else {}),
         "build_version": case_key.BUILD_VERSION,
         "summary": variant.summary,
         "details": dict(variant.details),

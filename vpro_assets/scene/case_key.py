@@ -1,8 +1,9 @@
 """What a built scene case depends on, as one hash, and whether the files built for it are current.
 
-The input hash covers the toolkit's build version, the generator's name and version, the case
-record, the base task's BDDL and initial states, the distractor pool table, the library versions
-and the BDDL templates; computing it needs no simulation, so a warm rebuild is quick.
+The input hash covers the toolkit's build version, the generator's name and version (and its
+revision for the case, where it has one: `plugins`), the case record, the base task's BDDL and
+initial states, the distractor pool table, the library versions and the BDDL templates; computing
+it needs no simulation, so a warm rebuild is quick.
 """
 
 from __future__ import annotations
@@ -37,6 +38,10 @@ def input_hash(case: dict, generator: plugins.Generator) -> str:
         (Path(bddl_doc.TEMPLATE_DIR) / bddl_doc.REGION_TEMPLATE).read_text(),
     ):
         h.update(part.encode())
+        h.update(b"\0")
+    revision = generator.revision_of(case)
+    if revision:  # only then: the hash of every case without one stays as it was
+        h.update(f"revision-{revision}".encode())
         h.update(b"\0")
     return h.hexdigest()
 

@@ -6,7 +6,11 @@ live outside the toolkit (the top-level `generators/` package, one module per fa
 the toolkit, and the toolkit loads them by module name on first use, never by a static import, so
 imports go one way. The registry refuses a second generator under a name already taken. A
 generator's `version` is part of every artifact's input hash: changing what a generator does means
-bumping it.
+bumping it. A change that concerns only some of a generator's cases is a `revision` instead: a
+function of the case record, cheap (no simulation), whose value (empty for the cases the change
+leaves alone) enters the input hash of the cases it names and nothing else. Those cases are built
+again; the others keep their hash, and the version in every case's BDDL stays, so a rebuilt case the
+change leaves as it was keeps its bytes (target geometry's fit to an enclosed receptacle).
 """
 
 from __future__ import annotations
@@ -32,13 +36,21 @@ class Generator:
     version: int
     fn: Callable  # (GenContext) -> SceneVariant
     doc: str
+    revision: Callable[[dict], str] | None = None  # case record -> per-case revision ("" for none)
+
+    def revision_of(self, case: dict) -> str:
+        """The generator's revision for `case` ("" where it has none)."""
+        return self.revision(case) if self.revision is not None else ""
 
 
 _REGISTRY: dict[str, Generator] = {}
 
 
-def register(name: str, version: int = 1) -> Callable[[Callable], Callable]:
-    """Decorator: register `fn` as the generator of `name`; a duplicate name is refused."""
+def register(
+    name: str, version: int = 1, revision: Callable[[dict], str] | None = None
+) -> Callable[[Callable], Callable]:
+    """Decorator: register `fn` as the generator of `name` (with a per-case `revision`, see the
+    module doc); a duplicate name is refused."""
 
     def wrap(fn: Callable) -> Callable:
         if name in _REGISTRY:
@@ -46,7 +58,7 @@ def register(name: str, version: int = 1) -> Callable[[Callable], Callable]:
                 f"generator {name!r} is already registered by {_REGISTRY[name].fn.__module__}; "
                 f"refusing a second one from {fn.__module__}"
             )
-        _REGISTRY[name] = Generator(name, version, fn, " ".join((fn.__doc__ or "").split()))
+        _REGISTRY[name] = Generator(name, version, fn, " ".join((fn.__doc__ or "").split()), revision)
         return fn
 
     return wrap
