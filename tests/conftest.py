@@ -17,6 +17,23 @@ os.environ.setdefault("VPRO_LIBERO_CONFIG_DIR", tempfile.mkdtemp(prefix="vpro-li
 import vpro_assets  # noqa: E402, F401
 
 
+# Files that run for minutes start first: `make test` spreads files over two workers (pytest-xdist,
+# --dist loadfile), and a long file dealt last would run alone at the end (the fork's environment
+# alone takes minutes to set up). The rest keep pytest's order.
+LONGEST_FIRST = (
+    "packs/test_fork_import.py",
+    "integrations/test_vla_eval.py",
+    "perturb/test_position_contradiction.py",
+    "rollout/test_resume.py",
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    tests_dir = os.path.dirname(__file__)
+    rank = {os.path.join(tests_dir, name): i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(str(item.path), len(rank)))  # stable: pytest's order otherwise
+
+
 @pytest.fixture(scope="session")
 def tasks():
     from vpro_assets.libero.tasks import load_tasks
