@@ -318,7 +318,8 @@ def every_geom_multi_ray(
     return geom, dist
 
 
-_UNBOUNDED = (mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_HFIELD)
+# As ints: numpy compares an array with MuJoCo's enum objects one element at a time (0.4 ms a call).
+_UNBOUNDED = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD))
 
 
 def beyond(model, data, origin: np.ndarray, within: float) -> np.ndarray:
