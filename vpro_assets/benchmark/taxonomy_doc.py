@@ -90,7 +90,7 @@ def render_taxonomy_doc(catalog: dict | None = None) -> str:
         f"({', '.join(f'{d / tx.CONTROL_HZ:g} s' for d in tx.STALENESS_DELAYS)}); freeze at step {tx.FREEZE_STEP}; "
         f"replay from step {tx.REPLAY_START} loops the view's frames {tx.REPLAY_START - tx.REPLAY_WINDOW}.."
         f"{tx.REPLAY_START - 1}.",
-        f"- Cross-view position contradiction (version 3): the target drawn elsewhere in one view, its projected "
+        f"- Cross-view position contradiction (version {tx.CONTRADICTION_VERSIONS['position']}): the target drawn elsewhere in one view, its projected "
         f"centre at least {tx.CONTRADICTION_MIN_SHIFT:g} of the image height from the real one and kept in view "
         "(docs/perturbations.md); quantity: the duplicate drawn at least "
         f"{tx.CONTRADICTION_OFFSET_M:g} m from the target.",
