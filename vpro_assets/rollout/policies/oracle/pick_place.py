@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vpro_assets.rollout.policies.oracle import motion
+from vpro_assets.rollout.policies.oracle import motion, nudge
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
@@ -160,7 +160,9 @@ def lower_and_release(world: World, held: str, dest: Destination) -> Actions:
 
 
 def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions:
-    """Pick `held` and put it (relation) `dest_arg`."""
+    """Pick `held` and put it (relation) `dest_arg`; first push it clear of a neighbour that stops
+    the hand over its pinch (`nudge`)."""
+    yield from nudge.clear_for_pick(world, held)
     yield from pick(world, held)
     dest = resolve(world, relation, dest_arg, held)
     yield from carry(world, held, dest.xy)
