@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vpro_assets.rollout.policies.oracle import push
+from vpro_assets.rollout.policies.oracle import motion, push
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation, hand_stop, pinch_part
-from vpro_assets.rollout.policies.oracle.motion import Actions
+from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
 from vpro_assets.rollout.policies.oracle.world import World
 
 DIRECTIONS = 16
@@ -36,6 +36,8 @@ SUPPORT_M = 0.005  # the object stays over boxes whose top is this close to its 
 MARGIN_M = 0.01  # pushed this much past the shortest shift that clears the hand
 BEHIND_M = 0.02  # the grip site (between the closed fingers) starts this far behind the object
 HOVER_M = 0.10  # the hand comes down onto the push's start from this far over it (`push._push_leg`)
+WAY_M, WAY_ABOVE_M = 0.15, 0.05  # the hand goes to the push's start this high over what stands this near its way
+NEAR_M = 0.3  # obstacle boxes this close to the push's start (in x and y) may meet the hand
 PATH_MARGIN_M = 0.003  # on its way the object passes this close to its neighbours (it starts 8 mm from one)
 # The fingers' closing axis from the push direction, in order of preference: along it (the palm, 21 cm
 # along the closing axis, then trails over the low object), diagonal, across.
@@ -97,7 +99,7 @@ def clearing_shift(world: World, instance: str) -> Push | None:
     top = float(whole[:, 2].max())
     boxes = obstacle_boxes(world, (instance,))
     own = object_boxes(world, instance)
-    hand = push.hand_points(world)
+    hand = closed_hand(world)
     dirs = [np.array([np.cos(a), np.sin(a), 0.0]) for a in np.linspace(0, 2 * np.pi, DIRECTIONS, endpoint=False)]
     for dist in np.arange(STEP_M, MAX_M + 1e-9, STEP_M):
         for d in dirs:
@@ -111,6 +113,18 @@ def clearing_shift(world: World, instance: str) -> Push | None:
                 if not _hand_meets(world, instance, boxes, hand, orient, d, dist + MARGIN_M):
                     return Push(d, float(dist + MARGIN_M), orient)
     return None
+
+
+def closed_hand(world: World) -> list[np.ndarray]:
+    """`push.hand_points` with the fingers closed (the push closes them on its way down): each
+    finger's points moved along the closing axis until its inner face is at the grip site."""
+    parts = []
+    for pts in push.hand_points(world):
+        lo, hi = pts[:, 0].min(), pts[:, 0].max()
+        if lo > 0.0 or hi < 0.0:  # a finger, wholly on one side of the grip site
+            pts = pts - [lo if lo > 0.0 else hi, 0.0, 0.0]
+        parts.append(pts)
+    return parts
 
 
 def _turn(v: np.ndarray, deg: float) -> np.ndarray:
@@ -137,12 +151,28 @@ def _hand_meets(
 ) -> bool:
     """Whether the hand (its gripper geoms' corners `hand`, in the grip frame), pointing down at
     `orient`, meets an obstacle box coming down onto the push's start (`push._push_leg`'s, BEHIND_M
-    behind the object) or following it `dist` along `direction`."""
+    behind the object) or following it `dist` along `direction`. Each part is its box in the grip
+    frame, turned with the hand (not its world box: turned 15 degrees, the palm's world box reaches
+    3 cm further to the side), and meets a box when a corner of either lies in the other."""
     xy = world.body_pos(instance)[:2] - direction[:2] * push._reach(world, instance, direction[:2], -BEHIND_M)
     start = np.array([*xy, world.box(instance).lo[2] + push.CONTACT_Z_M])
+    near = boxes[np.all(np.abs((boxes[:, 0, :2] + boxes[:, 1, :2]) / 2 - xy) < NEAR_M, axis=1)]
+    if not len(near):
+        return False
+    corners = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)
+    obstacle = near[:, 0][:, None] + corners[None] * (near[:, 1] - near[:, 0])[:, None]  # (N, 8, 3)
     down = [start + [0.0, 0.0, h] for h in np.linspace(0.0, HOVER_M, 6)]
     along = [start + direction * s for s in np.linspace(0.0, dist, max(2, int(dist / STEP_M) + 1))]
-    return any(push._sweep(boxes, part @ orient.T, np.array(down + along)) for part in hand)
+    for pose in down + along:
+        local = (obstacle.reshape(-1, 3) - pose) @ orient  # obstacle corners in the grip frame
+        for part in hand:
+            lo, hi = part.min(0), part.max(0)
+            if np.any(np.all((local > lo) & (local < hi), axis=1)):
+                return True
+            world_pts = pose + (lo + corners * (hi - lo)) @ orient.T
+            if np.any(np.all((world_pts[:, None] > near[None, :, 0]) & (world_pts[:, None] < near[None, :, 1]), axis=2)):
+                return True
+    return False
 
 
 def clear_for_pick(world: World, instance: str) -> Actions:
@@ -158,4 +188,13 @@ def clear_for_pick(world: World, instance: str) -> Actions:
     # `push`'s leg: `inside` negative puts the fingertips behind the object's back, not inside its rim.
     leg = push.Leg(goal, shift.orient, -BEHIND_M)
     depth = float(goal @ direction)
+    # Over the push's start above everything near the way there first (from the home pose straight
+    # to `push`'s hover point, libero_10-01's hand caught on the milk carton's top).
+    start = world.body_pos(instance)[:2] - direction * push._reach(world, instance, direction, -BEHIND_M)
+    boxes = obstacle_boxes(world, (instance,))
+    way = np.linspace(world.eef()[:2], start, 10)
+    near = np.any(np.all(np.abs((boxes[:, None, 0, :2] + boxes[:, None, 1, :2]) / 2 - way[None]) < WAY_M, axis=2), axis=1)
+    z = max(float(world.eef()[2]), float(boxes[near, 1, 2].max(initial=world.table_z)) + WAY_ABOVE_M)
+    yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, shift.orient, tol=0.02, max_steps=60)
+    yield from motion.move_to(world, [*start, z], CLOSE, shift.orient, tol=0.015, max_steps=120)
     yield from push._push_leg(world, instance, leg, lambda: float(world.body_pos(instance)[:2] @ direction) >= depth)
