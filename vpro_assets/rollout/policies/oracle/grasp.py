@@ -67,6 +67,8 @@ class Grasp:
     # A gentle pinch: the fingers' target opening (m), reached in whole CLOSE actions and then held
     # (a full close on a low foot presses the fingers over it). None: close fully.
     squeeze_to: float | None = None
+    # Held by its narrow top only (`narrow_top_grasp`): the object hangs from its top few millimetres.
+    hung: bool = False
 
 
 def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -232,7 +234,8 @@ def narrow_top_grasp(world: World, instance: str) -> Grasp | None:
     above them. None when even its top is too wide (an inverted bowl: its 5 cm foot stands 6 mm
     over 9 cm shoulders, so the pads meet the shoulders)."""
     top = narrow_top(world, instance)
-    return None if top is None else _clear_pinch(world, instance, *top)
+    grasp = None if top is None else _clear_pinch(world, instance, *top)
+    return None if grasp is None else replace(grasp, hung=True)
 
 
 def narrow_top(world: World, instance: str) -> tuple[np.ndarray, float] | None:
@@ -250,14 +253,10 @@ def narrow_top(world: World, instance: str) -> tuple[np.ndarray, float] | None:
 
 
 def pinch_part(world: World, instance: str) -> tuple[np.ndarray, float] | None:
-    """(points, grip-site height) of the pinch `plan_grasp` takes across a solid, whole or by its
-    narrow top; None when it takes the object otherwise (a handle, a foot, a wall) or not at all."""
+    """(points, grip-site height) of the pinch `plan_grasp` takes across a solid by its narrow top
+    only (`narrow_top_grasp`: too wide whole, no handle); None when it takes the object otherwise."""
     pts = world.points(instance)
-    lo, hi = pts.min(0), pts.max(0)
-    z = max(hi[2] - float(np.clip((hi[2] - lo[2]) * 0.5, 0.01, 0.03)), lo[2] + TABLE_CLEARANCE_M)
-    if widths(pts)[1].min() <= MAX_PINCH_M:
-        return pts, z
-    if handle_grasp(world, instance, pts) is not None:
+    if widths(pts)[1].min() <= MAX_PINCH_M or handle_grasp(world, instance, pts) is not None:
         return None
     return narrow_top(world, instance)
 
@@ -268,9 +267,7 @@ def hand_stop(boxes: np.ndarray, pts: np.ndarray, z: float) -> float:
     direction it fits across lets the hand come down to `z`; inf when it fits across none."""
     dirs, across = widths(pts)
     fit = np.flatnonzero(across <= MAX_PINCH_M)
-    return min(
-        (max(z, reach_height(boxes, _middle(pts, dirs[k], z), dirs[k])) - z for k in fit), default=float("inf")
-    )
+    return min((max(z, reach_height(boxes, _middle(pts, dirs[k], z), dirs[k])) - z for k in fit), default=float("inf"))
 
 
 def foot_grasp(world: World, instance: str) -> Grasp | None:
@@ -400,6 +397,7 @@ def pick(world: World, instance: str, attempts: int = 3, toward: np.ndarray | No
     when it does not come up after `attempts`."""
     for attempt in range(attempts):
         grasp = plan_grasp(world, instance, toward)
+        world.hung = grasp.hung
         orient = grasp_orientation(world, grasp.axis)
         start_z = world.body_pos(instance)[2]
         entry = side_entry(obstacle_boxes(world, (instance,)), grasp)

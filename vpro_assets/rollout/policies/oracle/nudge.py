@@ -52,7 +52,9 @@ def blocked(world: World, instance: str) -> bool:
     if part is None:
         return False
     pts, z = part
-    return _too_high(hand_stop(obstacle_boxes(world, (instance,)), pts, z), z, float(world.points(instance)[:, 2].max()))
+    return _too_high(
+        hand_stop(obstacle_boxes(world, (instance,)), pts, z), z, float(world.points(instance)[:, 2].max())
+    )
 
 
 def _too_high(stop: float, z: float, top: float) -> bool:
@@ -170,7 +172,9 @@ def _hand_meets(
             if np.any(np.all((local > lo) & (local < hi), axis=1)):
                 return True
             world_pts = pose + (lo + corners * (hi - lo)) @ orient.T
-            if np.any(np.all((world_pts[:, None] > near[None, :, 0]) & (world_pts[:, None] < near[None, :, 1]), axis=2)):
+            if np.any(
+                np.all((world_pts[:, None] > near[None, :, 0]) & (world_pts[:, None] < near[None, :, 1]), axis=2)
+            ):
                 return True
     return False
 
@@ -193,7 +197,9 @@ def clear_for_pick(world: World, instance: str) -> Actions:
     start = world.body_pos(instance)[:2] - direction * push._reach(world, instance, direction, -BEHIND_M)
     boxes = obstacle_boxes(world, (instance,))
     way = np.linspace(world.eef()[:2], start, 10)
-    near = np.any(np.all(np.abs((boxes[:, None, 0, :2] + boxes[:, None, 1, :2]) / 2 - way[None]) < WAY_M, axis=2), axis=1)
+    near = np.any(
+        np.all(np.abs((boxes[:, None, 0, :2] + boxes[:, None, 1, :2]) / 2 - way[None]) < WAY_M, axis=2), axis=1
+    )
     z = max(float(world.eef()[2]), float(boxes[near, 1, 2].max(initial=world.table_z)) + WAY_ABOVE_M)
     yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, shift.orient, tol=0.02, max_steps=60)
     yield from motion.move_to(world, [*start, z], CLOSE, shift.orient, tol=0.015, max_steps=120)

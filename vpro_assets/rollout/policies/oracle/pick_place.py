@@ -25,10 +25,9 @@ from vpro_assets.rollout.policies.oracle.motion import OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 CLEAR_M = 0.04  # the held object's bottom this far above every obstacle on the way
-# An object held within HUNG_M of its top (a twisted cream cheese pinched across its top 4 mm) tilts
-# in the fingers as it is carried; its bottom then clears obstacles by SWAY of its half width more
-# (libero_10-01 twist-s3 trial 3: carried 4 cm over the basket, it struck the basket and fell).
-HUNG_M, SWAY = 0.006, 0.5
+# An object held by its narrow top only (a twisted cream cheese pinched across its top 4 mm, `hung`)
+# tilts in the fingers as it is carried; its bottom then clears obstacles by SWAY of its half width more.
+SWAY = 0.5
 MAX_CARRY_ABOVE_TABLE_M = 0.45  # highest grip site the arm reaches comfortably, above the table
 RELEASE_ABOVE_M = 0.012  # release when the object's bottom is this close to the destination surface
 RETREAT_M = 0.10
@@ -123,7 +122,7 @@ def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()
     radius = float(np.max(box.size[:2])) / 2
     start = world.body_pos(held)[:2]
     top = corridor_top(world, start, xy, radius + 0.02, exclude=(held, *exclude))
-    sway = SWAY * radius if box.hi[2] - world.eef()[2] < HUNG_M else 0.0
+    sway = SWAY * radius if world.hung else 0.0
     z = min(max(top + CLEAR_M + sway + hang, world.eef()[2]), world.table_z + MAX_CARRY_ABOVE_TABLE_M)
     orient = world.eef_mat()
     yield from motion.move_to(
