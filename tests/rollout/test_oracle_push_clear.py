@@ -1,7 +1,7 @@
-"""The oracle's two fixes of issue 13's session 15 on real LIBERO scenes (render-free, no built scene
-case): a drawer part open is opened before something goes in (libero_10-03's receptacle-openness
-`-open75`), and a pinch target whose neighbour stops the hand is pushed clear first (`nudge`: the
-twisted cream cheese of libero_object-01 and libero_10-01).
+"""Two oracle fixes of issue 13 on real LIBERO scenes (render-free; the default run needs no built
+scene case): a drawer part open is opened before something goes in (libero_10-03's
+receptacle-openness `-open75`), and a target held by its narrow top whose neighbour stops the hand
+is pushed clear first (`nudge`: the twisted cream cheese of libero_object-01 and libero_10-01).
 
 Kept apart from tests/rollout/test_oracle.py (being split by skill) with its own small scene helper.
 """

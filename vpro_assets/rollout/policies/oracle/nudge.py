@@ -6,7 +6,9 @@ across at its base, its top 7.27-7.38 cm across in three directions 94-96 degree
 the hand away from standing neighbours (`grasp._clear_pinch`), but when every direction that fits
 puts the palm (21 cm along the closing axis) over a neighbour, the hand stops on it (3.5 cm over the
 pinch on the tomato sauce in libero_object-01, 9-12 cm on the milk in libero_10-01) and the fingers
-close on nothing. Then the object is first pushed along the table: of 16 directions, the shortest
+close on nothing. Then (only for an object held by its narrow top: in Normal scenes the hand model
+puts the palm over a neighbour above some whole pinches, libero_10-01's cream cheese among them,
+and those pinches hold) the object is first pushed along the table: of 16 directions, the shortest
 push that lets the open hand come down to the pinch, takes the object clear of its neighbours all
 the way and leaves it on what it stands on, and along which the pushing hand meets nothing. The
 push is `push`'s: the hand pointing down with its closed fingertips low behind the object, the
@@ -47,7 +49,7 @@ YAWS_DEG = (0.0, 15.0, -15.0, 30.0, -30.0, 45.0, -45.0, 60.0, -60.0, 90.0)
 def blocked(world: World, instance: str) -> bool:
     """Whether the open hand stops too high (`_too_high`) over the pinch `grasp` takes across
     `instance` because something stands where it comes down; False when the object is not taken by
-    a pinch."""
+    a pinch of its narrow top (`grasp.pinch_part`)."""
     part = pinch_part(world, instance)
     if part is None:
         return False
