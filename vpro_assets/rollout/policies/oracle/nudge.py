@@ -36,7 +36,9 @@ STEP_M, MAX_M = 0.01, 0.12
 STOP_M, GRIP_BELOW_TOP_M = 0.003, 0.005
 SUPPORT_M = 0.005  # the object stays over boxes whose top is this close to its bottom
 MARGIN_M = 0.01  # pushed this much past the shortest shift that clears the hand
-BEHIND_M = 0.02  # the grip site (between the closed fingers) starts this far behind the object
+# The grip site (between the closed fingers) starts this far behind the object: 2 cm, else 1 cm
+# (libero_10-01 twist-s3 trial 0: 2 cm back, the palm's far end came down 1.3 cm into the alphabet soup).
+BEHIND_M = (0.02, 0.01)
 HOVER_M = 0.10  # the hand comes down onto the push's start from this far over it (`push._push_leg`)
 WAY_M, WAY_ABOVE_M = 0.15, 0.05  # the hand goes to the push's start this high over what stands this near its way
 NEAR_M = 0.3  # obstacle boxes this close to the push's start (in x and y) may meet the hand
@@ -88,6 +90,7 @@ class Push:
     direction: np.ndarray  # horizontal unit vector
     dist: float
     orient: np.ndarray  # the hand's orientation, pointing down
+    behind: float  # the grip site starts this far behind the object
 
 
 def clearing_shift(world: World, instance: str) -> Push | None:
@@ -105,17 +108,20 @@ def clearing_shift(world: World, instance: str) -> Push | None:
     own = object_boxes(world, instance)
     hand = closed_hand(world)
     dirs = [np.array([np.cos(a), np.sin(a), 0.0]) for a in np.linspace(0, 2 * np.pi, DIRECTIONS, endpoint=False)]
+    candidates = []  # (direction, distance) that clear the hand over the pinch, shortest first
     for dist in np.arange(STEP_M, MAX_M + 1e-9, STEP_M):
         for d in dirs:
             if _too_high(hand_stop(boxes, pts + d * dist, z), z, top):
                 continue
             path = [d * s for s in np.arange(STEP_M, dist + MARGIN_M + 1e-9, STEP_M)]
-            if any(_meets(boxes, own + p) for p in path) or not _on_support(boxes, own, own + path[-1]):
-                continue
+            if not any(_meets(boxes, own + p) for p in path) and _on_support(boxes, own, own + path[-1]):
+                candidates.append((d, float(dist + MARGIN_M)))
+    for behind in BEHIND_M:
+        for d, dist in candidates:
             for yaw in YAWS_DEG:
                 orient = grasp_orientation(world, _turn(d, yaw))
-                if not _hand_meets(world, instance, boxes, hand, orient, d, dist + MARGIN_M):
-                    return Push(d, float(dist + MARGIN_M), orient)
+                if not _hand_meets(world, instance, boxes, hand, orient, d, dist, behind):
+                    return Push(d, dist, orient, behind)
     return None
 
 
@@ -152,13 +158,14 @@ def _hand_meets(
     orient: np.ndarray,
     direction: np.ndarray,
     dist: float,
+    behind: float,
 ) -> bool:
     """Whether the hand (its gripper geoms' corners `hand`, in the grip frame), pointing down at
-    `orient`, meets an obstacle box coming down onto the push's start (`push._push_leg`'s, BEHIND_M
-    behind the object) or following it `dist` along `direction`. Each part is its box in the grip
+    `orient`, meets an obstacle box coming down onto the push's start (`push._push_leg`'s, `behind`
+    the object) or following it `dist` along `direction`. Each part is its box in the grip
     frame, turned with the hand (not its world box: turned 15 degrees, the palm's world box reaches
     3 cm further to the side), and meets a box when a corner of either lies in the other."""
-    xy = world.body_pos(instance)[:2] - direction[:2] * push._reach(world, instance, direction[:2], -BEHIND_M)
+    xy = world.body_pos(instance)[:2] - direction[:2] * push._reach(world, instance, direction[:2], -behind)
     start = np.array([*xy, world.box(instance).lo[2] + push.CONTACT_Z_M])
     near = boxes[np.all(np.abs((boxes[:, 0, :2] + boxes[:, 1, :2]) / 2 - xy) < NEAR_M, axis=1)]
     if not len(near):
@@ -192,11 +199,11 @@ def clear_for_pick(world: World, instance: str) -> Actions:
     direction = shift.direction[:2]
     goal = world.body_pos(instance)[:2] + direction * shift.dist
     # `push`'s leg: `inside` negative puts the fingertips behind the object's back, not inside its rim.
-    leg = push.Leg(goal, shift.orient, -BEHIND_M)
+    leg = push.Leg(goal, shift.orient, -shift.behind)
     depth = float(goal @ direction)
     # Over the push's start above everything near the way there first (from the home pose straight
     # to `push`'s hover point, libero_10-01's hand caught on the milk carton's top).
-    start = world.body_pos(instance)[:2] - direction * push._reach(world, instance, direction, -BEHIND_M)
+    start = world.body_pos(instance)[:2] - direction * push._reach(world, instance, direction, -shift.behind)
     boxes = obstacle_boxes(world, (instance,))
     way = np.linspace(world.eef()[:2], start, 10)
     near = np.any(
