@@ -67,6 +67,8 @@ class Grasp:
     # A gentle pinch: the fingers' target opening (m), reached in whole CLOSE actions and then held
     # (a full close on a low foot presses the fingers over it). None: close fully.
     squeeze_to: float | None = None
+    # Held by its narrow top only (`narrow_top_grasp`): the object hangs from its top few millimetres.
+    hung: bool = False
 
 
 def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -231,6 +233,14 @@ def narrow_top_grasp(world: World, instance: str) -> Grasp | None:
     deep (down to NARROW_DEPTH_M) as the fingers' pads, coming down, still pass outside everything
     above them. None when even its top is too wide (an inverted bowl: its 5 cm foot stands 6 mm
     over 9 cm shoulders, so the pads meet the shoulders)."""
+    top = narrow_top(world, instance)
+    grasp = None if top is None else _clear_pinch(world, instance, *top)
+    return None if grasp is None else replace(grasp, hung=True)
+
+
+def narrow_top(world: World, instance: str) -> tuple[np.ndarray, float] | None:
+    """(the points of the object's top that `narrow_top_grasp` pinches, the grip site's height): as
+    deep as NARROW_DEPTH_M while the part the pads reach is at most MAX_PINCH_M across some way."""
     hulls = world.hulls(instance)
     top = max(float(h[:, 2].max()) for h in hulls)
     best = None
@@ -239,7 +249,25 @@ def narrow_top_grasp(world: World, instance: str) -> Grasp | None:
         if narrowest(part)[1] > MAX_PINCH_M:
             break
         best = part, top - depth
-    return None if best is None else _clear_pinch(world, instance, *best)
+    return best
+
+
+def pinch_part(world: World, instance: str) -> tuple[np.ndarray, float] | None:
+    """(points, grip-site height) of the pinch `plan_grasp` takes across a solid by its narrow top
+    only (`narrow_top_grasp`: too wide whole, no handle); None when it takes the object otherwise."""
+    pts = world.points(instance)
+    if widths(pts)[1].min() <= MAX_PINCH_M or handle_grasp(world, instance, pts) is not None:
+        return None
+    return narrow_top(world, instance)
+
+
+def hand_stop(boxes: np.ndarray, pts: np.ndarray, z: float) -> float:
+    """How far above the pinch height `z` the open hand stops, at best, over a pinch of the solid
+    `pts` (as `_clear_pinch` ranks them; boxes: the obstacles' (N, 2, 3) world boxes): 0 when some
+    direction it fits across lets the hand come down to `z`; inf when it fits across none."""
+    dirs, across = widths(pts)
+    fit = np.flatnonzero(across <= MAX_PINCH_M)
+    return min((max(z, reach_height(boxes, _middle(pts, dirs[k], z), dirs[k])) - z for k in fit), default=float("inf"))
 
 
 def foot_grasp(world: World, instance: str) -> Grasp | None:
@@ -369,6 +397,7 @@ def pick(world: World, instance: str, attempts: int = 3, toward: np.ndarray | No
     when it does not come up after `attempts`."""
     for attempt in range(attempts):
         grasp = plan_grasp(world, instance, toward)
+        world.hung = grasp.hung
         orient = grasp_orientation(world, grasp.axis)
         start_z = world.body_pos(instance)[2]
         entry = side_entry(obstacle_boxes(world, (instance,)), grasp)

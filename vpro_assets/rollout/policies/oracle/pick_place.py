@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vpro_assets.rollout.policies.oracle import motion
+from vpro_assets.rollout.policies.oracle import motion, nudge
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
@@ -25,6 +25,9 @@ from vpro_assets.rollout.policies.oracle.motion import OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 CLEAR_M = 0.04  # the held object's bottom this far above every obstacle on the way
+# An object held by its narrow top only (a twisted cream cheese pinched across its top 4 mm, `hung`)
+# tilts in the fingers as it is carried; its bottom then clears obstacles by SWAY of its half width more.
+SWAY = 0.5
 MAX_CARRY_ABOVE_TABLE_M = 0.45  # highest grip site the arm reaches comfortably, above the table
 RELEASE_ABOVE_M = 0.012  # release when the object's bottom is this close to the destination surface
 RETREAT_M = 0.10
@@ -119,7 +122,8 @@ def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()
     radius = float(np.max(box.size[:2])) / 2
     start = world.body_pos(held)[:2]
     top = corridor_top(world, start, xy, radius + 0.02, exclude=(held, *exclude))
-    z = min(max(top + CLEAR_M + hang, world.eef()[2]), world.table_z + MAX_CARRY_ABOVE_TABLE_M)
+    sway = SWAY * radius if world.hung else 0.0
+    z = min(max(top + CLEAR_M + sway + hang, world.eef()[2]), world.table_z + MAX_CARRY_ABOVE_TABLE_M)
     orient = world.eef_mat()
     yield from motion.move_to(
         world, [*world.eef()[:2], z], world.hold_grip, orient, tol=0.015, max_steps=80, speed=CARRY_SPEED
@@ -160,7 +164,9 @@ def lower_and_release(world: World, held: str, dest: Destination) -> Actions:
 
 
 def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions:
-    """Pick `held` and put it (relation) `dest_arg`."""
+    """Pick `held` and put it (relation) `dest_arg`; first push it clear of a neighbour that stops
+    the hand over its pinch (`nudge`)."""
+    yield from nudge.clear_for_pick(world, held)
     yield from pick(world, held)
     dest = resolve(world, relation, dest_arg, held)
     yield from carry(world, held, dest.xy)

@@ -63,6 +63,9 @@ class World:
         # The gripper action that keeps a held object: 1 closes on it, 0 keeps the fingers' target
         # where the grasp left it (a gentle pinch, `grasp.foot_grasp`). Set by each pick.
         self.hold_grip = 1.0
+        # Whether the held object hangs from its narrow top only (`grasp.narrow_top_grasp`): the carry
+        # then passes higher over obstacles. Set by each pick.
+        self.hung = False
         # The table (or floor) top: what the lowest movable object rests on.
         self.table_z = min(float(self.box(inst).lo[2]) for inst, _ in task.objects) if task.objects else 0.0
 
