@@ -16,7 +16,6 @@ os.environ.setdefault("VPRO_LIBERO_CONFIG_DIR", tempfile.mkdtemp(prefix="vpro-li
 # Before any test module imports numpy: the toolkit's import pins numpy's kernels (the lock's bytes).
 import vpro_assets  # noqa: E402, F401
 
-
 # Files that run for minutes start first: `make test` spreads files over two workers (pytest-xdist,
 # --dist loadfile), and a long file dealt last would run alone at the end (the fork's environment
 # alone takes minutes to set up). The rest keep pytest's order.
@@ -189,6 +188,14 @@ class OracleScene:
         self.cenv.sim.data.qpos[self.world.m.jnt_qposadr[joint]] = q
         self.cenv.sim.forward()
         self.wait(5)
+
+    def plan(self) -> list[str]:
+        """The oracle's plan from LIBERO's goal and the current state, one string per step."""
+        from vpro_assets.rollout.policies.oracle.plan import plan
+        from vpro_assets.rollout.policies.oracle.policy import OracleController
+
+        goal = OracleController(self.cenv.env, self.cenv.task).goal
+        return [str(step) for step in plan(self.world, goal, self.holds)]
 
     def oracle_until_success(self, limit: int) -> bool:
         """Run the oracle (plan, skills, replans) from the current state until LIBERO's success."""

@@ -2,100 +2,39 @@
 scene case): a drawer part open is opened before something goes in (libero_10-03's
 receptacle-openness `-open75`), and a target held by its narrow top whose neighbour stops the hand
 is pushed clear first (`nudge`: the twisted cream cheese of libero_object-01 and libero_10-01).
-
-Kept apart from tests/rollout/test_oracle.py (being split by skill) with its own small scene helper.
 """
-
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from conftest import build_scene_case
 
-from vpro_assets.benchmark.catalog import find_case, load_catalog
-from vpro_assets.core import paths
-from vpro_assets.libero.env import NOOP_ACTION
-from vpro_assets.rollout.case_env import env_for_case
 from vpro_assets.rollout.policies.oracle import nudge
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import hand_stop, pick, pinch_part
-from vpro_assets.rollout.policies.oracle.plan import plan
-from vpro_assets.rollout.policies.oracle.policy import OracleController, libero_holds
-from vpro_assets.rollout.policies.oracle.world import World
-
-CATALOG = load_catalog(paths.catalog_path())
-
-
-class _Scene:
-    """A render-free env of a Normal task at one trial's initial state, after LIBERO's wait steps."""
-
-    def __init__(self, case_id: str, trial: int = 0):
-        self.cenv = env_for_case(find_case(CATALOG, case_id), trial, render=False, reuse=False)
-        self.cenv.reset()
-        for _ in range(10):
-            self.cenv.step(NOOP_ACTION)
-        self.holds = libero_holds(self.cenv.env)
-        self.world = World(self.cenv.sim, self.cenv.task, self.holds)
-
-    def run(self, actions, limit: int) -> int:
-        n = 0
-        for n, action in enumerate(actions, 1):
-            self.cenv.step(action)
-            assert n < limit, f"still running after {limit} steps"
-        return n
-
-    def set_joint(self, name: str, q: float) -> None:
-        """Set a drawer's joint (as a receptacle-openness case starts it) and settle."""
-        self.cenv.sim.data.qpos[self.world.m.jnt_qposadr[self.world.joint(name)]] = q
-        self.cenv.sim.forward()
-        for _ in range(5):
-            self.cenv.step(NOOP_ACTION)
-
-    def plan(self) -> list[str]:
-        return [str(st) for st in plan(self.world, OracleController(self.cenv.env, self.cenv.task).goal, self.holds)]
-
-
-@pytest.fixture
-def scene_at():
-    made: list[_Scene] = []
-
-    def make(case_id: str, trial: int = 0) -> _Scene:
-        made.append(_Scene(case_id, trial))
-        return made[-1]
-
-    yield make
-    for s in made:
-        s.cenv.close()
-
 
 PUT_IN = "pick_place(in akita_black_bowl_1 white_cabinet_1_bottom_region)"
 CLOSE = "drawer(close white_cabinet_1_bottom_region)"
 OPEN = "drawer(open white_cabinet_1_bottom_region)"
 
 
-def test_plan_opens_a_part_open_drawer_before_the_bowl_goes_in(scene_at):
+def test_plan_opens_a_part_open_drawer_before_the_bowl_goes_in(scene):
     """libero_10-03 ("put the black bowl in the bottom drawer and close it"): its Normal start has the
     drawer open past LIBERO's `Open` (-0.14), so the bowl goes straight in. Three quarters open
     (-0.105, as trial 0 of the `-open75` case starts it) the 10.7 cm bowl does not fit between the
     drawer's front and the middle drawer's handle over it: the drawer is opened first."""
-    s = scene_at("libero_10-03/normal")
+    s = scene("libero_10-03/normal")
     assert s.plan() == [PUT_IN, CLOSE]
-    s.set_joint("white_cabinet_1_bottom_level", -0.105)
+    s.set_joint(s.world.joint("white_cabinet_1_bottom_level"), -0.105)
     assert not s.holds(("open", "white_cabinet_1_bottom_region"))
     assert s.plan() == [OPEN, PUT_IN, CLOSE]
 
 
-def test_bowl_goes_into_the_part_open_drawer_and_it_closes(scene_at):
+def test_bowl_goes_into_the_part_open_drawer_and_it_closes(scene):
     """The whole task from the three-quarters-open drawer within libero_10's 520 steps (before the
     fix the bowl rested on the middle drawer's handle and the close stalled at -0.04)."""
-    s = scene_at("libero_10-03/normal")
-    s.set_joint("white_cabinet_1_bottom_level", -0.105)
-    controller = OracleController(s.cenv.env, s.cenv.task)
-    for _ in range(520):
-        s.cenv.step(controller.action())
-        if s.cenv.success():
-            break
-    assert s.cenv.success(), controller.log
+    s = scene("libero_10-03/normal")
+    s.set_joint(s.world.joint("white_cabinet_1_bottom_level"), -0.105)
+    assert s.oracle_until_success(limit=520)
 
 
 def _block(center, half, top):
@@ -121,12 +60,12 @@ def test_hand_stop_over_a_pinch_and_when_it_is_too_high():
     assert not nudge._too_high(0.02, 0.09, 0.12)
 
 
-def test_a_whole_pinch_is_not_pushed_clear(scene_at):
+def test_a_whole_pinch_is_not_pushed_clear(scene):
     """libero_10-01/normal, trial 0: the cream cheese fits the open fingers whole, and in the hand
     model the palm over its best pinch lies over the milk carton 8.5 cm up; the Normal task is solved
     so (9 of 10 trials in the certificate), so only a pinch by the narrow top (`pinch_part`) is
     pushed clear."""
-    s = scene_at("libero_10-01/normal", 0)
+    s = scene("libero_10-01/normal", 0)
     obj = "cream_cheese_1"
     pts = s.world.points(obj)
     z = float(pts[:, 2].max()) - 0.01
@@ -136,15 +75,15 @@ def test_a_whole_pinch_is_not_pushed_clear(scene_at):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case_id", ["libero_object-01/target_geometry_variation/twist-s3-v2"])
-def test_twisted_cream_cheese_pushed_clear_of_its_neighbour_then_lifted(scene_at, case_id):
+def test_twisted_cream_cheese_pushed_clear_of_its_neighbour_then_lifted(scene, case_id):
     """The twisted cream cheese (too wide to pinch whole, its top 7.3 cm across in three directions)
     stands where every pinch of its top puts the palm over the tomato sauce: it is pushed away from
     it first, and the pick lifts it (trial 1 failed before the push). Here the box stops after 2.5 of
     the 4 cm planned and the hand model still puts the palm 3.5 cm over the pinch, yet the pick
     holds: the model (the palm's box) is conservative. The scene is built first (a no-op when it is
     current)."""
-    subprocess.run([sys.executable, "-m", "vpro_assets.cli", "build", "--select", case_id], check=True)
-    s = scene_at(case_id, 1)
+    build_scene_case(case_id)
+    s = scene(case_id, 1)
     obj = "cream_cheese_1"
     assert nudge.blocked(s.world, obj)
     pts, z = pinch_part(s.world, obj)

@@ -39,7 +39,7 @@ MARGIN_M = 0.01  # pushed this much past the shortest shift that clears the hand
 # The grip site (between the closed fingers) starts this far behind the object: 2 cm, else 1 cm
 # (libero_10-01 twist-s3 trial 0: 2 cm back, the palm's far end came down 1.3 cm into the alphabet soup).
 BEHIND_M = (0.02, 0.01)
-HOVER_M = 0.10  # the hand comes down onto the push's start from this far over it (`push._push_leg`)
+HOVER_M = 0.10  # the hand comes down onto the push's start from this far over it (`push.push_leg`)
 WAY_M, WAY_ABOVE_M = 0.15, 0.05  # the hand goes to the push's start this high over what stands this near its way
 NEAR_M = 0.3  # obstacle boxes this close to the push's start (in x and y) may meet the hand
 PATH_MARGIN_M = 0.003  # on its way the object passes this close to its neighbours (it starts 8 mm from one)
@@ -161,11 +161,11 @@ def _hand_meets(
     behind: float,
 ) -> bool:
     """Whether the hand (its gripper geoms' corners `hand`, in the grip frame), pointing down at
-    `orient`, meets an obstacle box coming down onto the push's start (`push._push_leg`'s, `behind`
+    `orient`, meets an obstacle box coming down onto the push's start (`push.push_leg`'s, `behind`
     the object) or following it `dist` along `direction`. Each part is its box in the grip
     frame, turned with the hand (not its world box: turned 15 degrees, the palm's world box reaches
     3 cm further to the side), and meets a box when a corner of either lies in the other."""
-    xy = world.body_pos(instance)[:2] - direction[:2] * push._reach(world, instance, direction[:2], -behind)
+    xy = world.body_pos(instance)[:2] - direction[:2] * push.back_reach(world, instance, direction[:2], -behind)
     start = np.array([*xy, world.box(instance).lo[2] + push.CONTACT_Z_M])
     near = boxes[np.all(np.abs((boxes[:, 0, :2] + boxes[:, 1, :2]) / 2 - xy) < NEAR_M, axis=1)]
     if not len(near):
@@ -203,7 +203,7 @@ def clear_for_pick(world: World, instance: str) -> Actions:
     depth = float(goal @ direction)
     # Over the push's start above everything near the way there first (from the home pose straight
     # to `push`'s hover point, libero_10-01's hand caught on the milk carton's top).
-    start = world.body_pos(instance)[:2] - direction * push._reach(world, instance, direction, -shift.behind)
+    start = world.body_pos(instance)[:2] - direction * push.back_reach(world, instance, direction, -shift.behind)
     boxes = obstacle_boxes(world, (instance,))
     way = np.linspace(world.eef()[:2], start, 10)
     near = np.any(
@@ -212,4 +212,4 @@ def clear_for_pick(world: World, instance: str) -> Actions:
     z = max(float(world.eef()[2]), float(boxes[near, 1, 2].max(initial=world.table_z)) + WAY_ABOVE_M)
     yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, shift.orient, tol=0.02, max_steps=60)
     yield from motion.move_to(world, [*start, z], CLOSE, shift.orient, tol=0.015, max_steps=120)
-    yield from push._push_leg(world, instance, leg, lambda: float(world.body_pos(instance)[:2] @ direction) >= depth)
+    yield from push.push_leg(world, instance, leg, lambda: float(world.body_pos(instance)[:2] @ direction) >= depth)

@@ -62,7 +62,7 @@ def _sweep(boxes: np.ndarray, local: np.ndarray, path: np.ndarray) -> set[int]:
     return hits
 
 
-def _reach(world: World, obj: str, direction: np.ndarray, inside: float = INSIDE_M) -> float:
+def back_reach(world: World, obj: str, direction: np.ndarray, inside: float = INSIDE_M) -> float:
     """From the object's body position back to the fingertips, for a push along `direction`."""
     proj = (world.points(obj)[:, :2] - world.body_pos(obj)[:2]) @ direction
     return float(-proj.min() - inside)
@@ -98,7 +98,7 @@ def _leg(
         axis = np.array([c * across[0] - s * across[1], s * across[0] + c * across[1], 0.0])
         orient = grasp_orientation(world, axis)
         for inside in INSIDE_CHOICES_M:
-            grips = centres - np.append(direction * _reach(world, obj, direction, inside), 0.0)
+            grips = centres - np.append(direction * back_reach(world, obj, direction, inside), 0.0)
             hits = set(obj_hits)
             for part in hand:
                 hits |= _sweep(boxes, part @ orient.T, grips)
@@ -133,11 +133,11 @@ def push_path(world: World, obj: str, target: np.ndarray) -> list[Leg]:
     return best[1] if best else [Leg(target, grasp_orientation(world, np.array([0.0, 1.0, 0.0])), INSIDE_M)]
 
 
-def _push_leg(world: World, obj: str, leg: Leg, done) -> Actions:
+def push_leg(world: World, obj: str, leg: Leg, done) -> Actions:
     """Push the object's body position toward `leg.to` until `done()`."""
     pos = world.body_pos(obj)[:2]
     direction = _unit(leg.to - pos)
-    reach = _reach(world, obj, direction, leg.inside)
+    reach = back_reach(world, obj, direction, leg.inside)
     start = np.append(pos - direction * reach, world.box(obj).lo[2] + CONTACT_Z_M)
     yield from motion.move_to(world, start + [0, 0, 0.10], CLOSE, leg.orient, tol=0.012, max_steps=150)
     yield from motion.move_to(world, start, CLOSE, leg.orient, tol=0.008, max_steps=80, speed=0.6)
@@ -168,10 +168,10 @@ def push_to(world: World, obj: str, region: str) -> Actions:
     legs = push_path(world, obj, target)
     for i, leg in enumerate(legs):
         if i == len(legs) - 1:
-            yield from _push_leg(world, obj, leg, lambda: world.holds(goal))
+            yield from push_leg(world, obj, leg, lambda: world.holds(goal))
         else:
             to = leg.to
-            yield from _push_leg(
+            yield from push_leg(
                 world,
                 obj,
                 leg,
