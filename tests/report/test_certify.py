@@ -132,7 +132,7 @@ def test_certify_stratified_sample(tmp_path, monkeypatch):
     results = tmp_path / "certify.sqlite"
     run_certify(sample, results, 2, False, "local", 2, None, [c["id"] for c in sample])
     outputs = _outputs(tmp_path)
-    certificate = write_outputs(CATALOG, paths.catalog_path(), results, outputs)
+    certificate = write_outputs(paths.catalog_path(), results, outputs)
     entries = certificate["cases"]
     assert set(entries) == {c["id"] for c in sample}
     for cid, e in entries.items():
@@ -194,9 +194,9 @@ def test_resume_on_a_fresh_machine_continues_from_the_committed_certificate(tmp_
         on_plan=lambda todo, skipped: planned.append((todo, skipped)), carry_from=(CATALOG, committed),
     )  # fmt: skip
     assert planned == [(0, 2)] and summary.recorded == 0
-    entry = write_outputs(CATALOG, paths.catalog_path(), tmp_path / "c.sqlite", _outputs(tmp_path), replays=False)[
-        "cases"
-    ][NORMAL]
+    entry = write_outputs(paths.catalog_path(), tmp_path / "c.sqlite", _outputs(tmp_path), replays=False)["cases"][
+        NORMAL
+    ]
     assert {k: entry[k] for k in ("trials", "solved_trials", "steps", "final_state")} == {
         "trials": 2, "solved_trials": [1], "steps": [100, 101], "final_state": ["fp0", "fp1"]
     }  # fmt: skip
@@ -204,6 +204,24 @@ def test_resume_on_a_fresh_machine_continues_from_the_committed_certificate(tmp_
     with ResultsStore(tmp_path / "d.sqlite") as store:
         store.create_run(RUN_ID, "oracle", "oracle", {}, [], 2, {}, None)
         assert carry_certificate(store, CATALOG, other, EpisodeSettings(render=False)) == []
+
+
+def test_catalog_changed_during_a_run_leaves_the_changed_case_out_of_a_certificate_of_the_new_catalog(tmp_path):
+    """Trials recorded on one catalog, the catalog then rebuilt with that case's record changed (as a
+    merge during a long run does): the certificate written is bound to the catalog file as it is
+    when written, without the stale case, and `vpro catalog verify`'s check accepts it."""
+    run_certify(
+        [find_case(CATALOG, NORMAL)], tmp_path / "c.sqlite", 2, True, "inline", 1, None, [NORMAL],
+        carry_from=(CATALOG, _committed(NORMAL, [0, 1], [0, 1])),
+    )  # fmt: skip
+    changed = json.loads(paths.catalog_path().read_text(encoding="utf-8"))
+    case = next(c for c in changed["normal"] if c["id"] == NORMAL)
+    case["instruction"] += " (reworded)"
+    catalog_file = tmp_path / "catalog.json"
+    catalog_file.write_text(json.dumps(changed), encoding="utf-8")
+    certificate = write_outputs(catalog_file, tmp_path / "c.sqlite", _outputs(tmp_path), replays=False)
+    assert NORMAL not in certificate["cases"] and certificate["catalog_sha256"] == cert.file_sha256(catalog_file)
+    assert cert.check(cert.load(_outputs(tmp_path).certificate), changed, catalog_file) == []
 
 
 def test_redo_runs_a_carried_case_again(tmp_path):

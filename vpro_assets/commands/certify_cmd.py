@@ -133,7 +133,7 @@ def run_certify_cmd(args) -> int:
             f"({3600 * summary.recorded / max(summary.elapsed, 1e-9):.0f} per hour)",
             file=sys.stderr,
         )
-    certificate = write_outputs(catalog, catalog_file, args.results, outputs, replays=not args.no_replays)
+    certificate = write_outputs(catalog_file, args.results, outputs, replays=not args.no_replays)
     entries = certificate["cases"].values()
     solved, trials = sum(e["solved"] for e in entries), sum(e["trials"] for e in entries)
     print(

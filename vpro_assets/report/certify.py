@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from vpro_assets.benchmark import certificate as cert
+from vpro_assets.benchmark.catalog import load_catalog
 from vpro_assets.benchmark.lock import lock_path
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
@@ -271,14 +272,21 @@ def explain_failures(
     return out
 
 
-def write_outputs(catalog: dict, catalog_file: Path, results: Path, outputs: Outputs, replays: bool = True) -> dict:
-    """Write the certificate and the document from every row of the certification run; the certificate."""
+def write_outputs(catalog_file: Path, results: Path, outputs: Outputs, replays: bool = True) -> dict:
+    """Write the certificate and the document from every row of the certification run; the certificate.
+
+    The catalog is read here, not where the run started: its records and its sha256 must come from
+    the same file, or a catalog rebuilt during a long run would bind the certificate to the new file
+    while its entries hold the old records (stale entries in a certificate that claims to belong)."""
     with ResultsStore(results) as store:
         run = store.run(RUN_ID)
         if run is None:
             raise VProError(f"{results}: no certification run; run vpro certify first")
         rows = store.episodes(RUN_ID)
     catalog_sha = sha256_file(catalog_file)
+    catalog = load_catalog(catalog_file)
+    if sha256_file(catalog_file) != catalog_sha:
+        raise VProError(f"{catalog_file} changed while being read; write the certificate again (--write-only)")
     lock_sha = cert.file_sha256(lock_path())
     all_cases = catalog.get("normal", []) + catalog["cases"]
     ran_on = _case_hashes(results)
