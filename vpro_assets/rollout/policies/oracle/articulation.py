@@ -58,8 +58,15 @@ def joint_for(world: World, arg: str) -> Joint:
     return Joint(j, fixture, arg, open_end, closed_end)
 
 
-def needs_opening(world: World, region: str) -> bool:
-    """A closed drawer or door (nearer its closed end than its open end) must open before
-    something goes in."""
+def needs_opening(world: World, region: str, is_open: bool) -> bool:
+    """Whether the drawer or door of `region` must open before something goes in; `is_open`: LIBERO's
+    Open holds for it. A drawer must be out as far as Open: less, its mouth stays under the
+    cabinet's front and the object rests on the handle of the drawer below (libero_10-03's
+    receptacle_openness -open75, out more than half). A door only when nearer its closed end than its
+    open end: swung past halfway, it lets the object in."""
+    if is_open:
+        return False
+    if is_drawer(world, region):
+        return True
     joint = joint_for(world, region)
     return abs(world.qpos(joint.id) - joint.closed_end) < 0.5 * abs(joint.open_end - joint.closed_end)

@@ -143,8 +143,7 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
             pred[0] == "in"
             and _articulated(world, pred[2])
             and pred[2] not in opened
-            and not holds(("open", pred[2]))
-            and (needs_opening(world, pred[2]) or is_drawer(world, pred[2]))
+            and needs_opening(world, pred[2], holds(("open", pred[2])))
         ):
             steps += _opening(world, pred[2])
             opened.add(pred[2])
