@@ -51,8 +51,11 @@ FIT_REVISION = "fit1"
 def _deformed(category: str, deformation: str, severity: int, fit_scale: float = 1.0) -> GeneratedObject:
     return GeneratedObject(
         name=tg.object_name(category, deformation, severity, fit_scale),
-        # Returns the pipeline's record (xml_path, and per-stage timings the build adds up).
-        write=lambda root: tg.generate_deformed_object(category, deformation, severity, root, fit_scale=fit_scale),
+        # Returns the pipeline's record (xml_path, and per-stage timings the build adds up); a new
+        # object is made in a child process, so what coacd leaves does not stay in the build worker.
+        write=lambda root: tg.generate_deformed_object(
+            category, deformation, severity, root, fit_scale=fit_scale, isolate=True
+        ),
         template=category,
         shared=True,
     )
@@ -92,7 +95,9 @@ def _fit(ctx: GenContext, category: str, deformation: str, severity: int) -> tup
     reach, height = object_size(model, data, f"{task.target}_main")
     # The unfitted object's measures: it is shared by the setting's other cases, so it is made
     # (or found in the cache) anyway; the fitted one is made by the build from this case's variant.
-    measures = tg.generate_deformed_object(category, deformation, severity, paths.objects_root()).record["measures"]
+    measures = tg.generate_deformed_object(category, deformation, severity, paths.objects_root(), isolate=True).record[
+        "measures"
+    ]
     up = tg.up_axis(category)
     height_ratio = float(measures["extent_ratios"][{"x": 0, "y": 1, "z": 2}[up[1]]])
     scale = fit_scale(room, reach, height, float(measures["max_radius_ratio"]), height_ratio)

@@ -43,6 +43,7 @@ def main() -> None:
     parser.add_argument("cases", nargs="+", help="scene case ids, built in this order")
     args = parser.parse_args()
     peak = [0]
+    child_peak = [0.0]
     real_stage = stages.StageClock.stage
 
     @contextlib.contextmanager
@@ -67,6 +68,7 @@ def main() -> None:
     for cid in args.cases:
         print(f"{cid} (RSS {status()['VmRSS']} MB)", flush=True)
         result = build.build_case(find_case(catalog, cid), force=True)
+        child_peak[0] = max(child_peak[0], result.peak_child_rss_mb)
         gc.collect()
         models = sum(m.nbuffer for m in physics._MODELS.values()) >> 20
         print(
@@ -76,6 +78,7 @@ def main() -> None:
             flush=True,
         )
     print(f"peak over all stages: {max(peak[0], status()['VmHWM'])} MB")
+    print(f"largest child process (a deformed object's generation): {child_peak[0]:.0f} MB")
 
 
 if __name__ == "__main__":

@@ -28,9 +28,10 @@ from tqdm import tqdm
 from vpro_assets.benchmark import lock
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
+from vpro_assets.core.memory import peak_rss_mb
 from vpro_assets.libero import physics
 from vpro_assets.scene import base_scene, build
-from vpro_assets.scene.stages import StageClock, peak_rss_mb
+from vpro_assets.scene.stages import StageClock
 from vpro_assets.scene.validate import validate_case
 
 PATHS = ("reference", "render-free")

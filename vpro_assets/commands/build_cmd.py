@@ -72,9 +72,11 @@ def run_build(args) -> int:
     split = ", ".join(f"{k} {v:.1f} s" for k, v in stages.items())
     wall = time.perf_counter() - started
     peak = max((r.peak_rss_mb for r in results), default=0.0)
+    child_peak = max((r.peak_child_rss_mb for r in results), default=0.0)
     print(f"{built} built, {unchanged} unchanged, {len(failed)} failed in {wall:.1f} s ({split})", file=sys.stderr)
     if peak:
-        print(f"peak memory of a worker: {peak:.0f} MB", file=sys.stderr)
+        child = f" (of the child generating a deformed object: {child_peak:.0f} MB)" if child_peak else ""
+        print(f"peak memory of a worker: {peak:.0f} MB{child}", file=sys.stderr)
     if args.timings:
         write_text_atomic(
             args.timings,
@@ -84,6 +86,7 @@ def run_build(args) -> int:
                     "jobs": args.jobs,
                     "stage_seconds": {k: round(v, 1) for k, v in stages.items()},
                     "peak_rss_mb_per_worker": round(peak),
+                    "peak_rss_mb_per_generation_child": round(child_peak),
                     "cases": [
                         {
                             "case": r.case_id,
@@ -91,6 +94,7 @@ def run_build(args) -> int:
                             "seconds": round(r.seconds, 2),
                             "stages": {k: round(v, 2) for k, v in r.stages.items()},
                             "peak_rss_mb": round(r.peak_rss_mb),
+                            "peak_child_rss_mb": round(r.peak_child_rss_mb),
                             "error": r.error,
                         }
                         for r in results

@@ -37,11 +37,14 @@ name the object and leave nothing behind in `out_dir` but files of other objects
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
+import multiprocessing
 import os
 import shutil
 from collections.abc import Mapping
+from concurrent.futures import ProcessPoolExecutor
 from importlib.metadata import version
 from pathlib import Path
 
@@ -50,6 +53,7 @@ from vpro_assets.benchmark.taxonomy import Setting
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import InvalidParameterError, UnknownIdError
 from vpro_assets.core.hashing import sha256_file
+from vpro_assets.core.memory import peak_rss_mb
 from vpro_assets.core.seeding import derive_seed
 from vpro_assets.geometry.convex import CoacdParams
 from vpro_assets.geometry.meshes import MeshError
@@ -181,9 +185,11 @@ def generate_deformed_object(
     coacd_params: CoacdParams | None = None,
     force: bool = False,
     fit_scale: float = 1.0,
+    isolate: bool = False,
 ) -> GeneratedObject:
     """Generate (or reuse, when its inputs are unchanged) the deformed object, scaled by `fit_scale`
-    (a multiple of FIT_STEP, 1: not fitted); see the module doc."""
+    (a multiple of FIT_STEP, 1: not fitted); see the module doc. `isolate`: generate in a child
+    process (`_generate_in_child`); the check for a current object stays in this one."""
     out_dir = Path(out_dir)
     setting = geometry_setting(deformation, severity)
     xml_path = libero_object_xml(category)
@@ -194,6 +200,8 @@ def generate_deformed_object(
         cached = load_generated(out_dir, name, key)
         if cached is not None:
             return cached
+    if isolate:
+        return _generate_in_child(category, deformation, severity, out_dir, coacd_params, fit_scale)
     staging = out_dir / f".staging-{name}-{os.getpid()}"
     shutil.rmtree(staging, ignore_errors=True)
     try:
@@ -219,6 +227,34 @@ def generate_deformed_object(
         shutil.rmtree(staging, ignore_errors=True)
         raise
     return result
+
+
+def _generate_in_child(
+    category: str, deformation: str, severity: int, out_dir: Path, coacd_params: CoacdParams, fit_scale: float
+) -> GeneratedObject:
+    """Generate in a fresh process, which exits when done. coacd, manifold3d and USD keep about
+    230 MB in a process that ran them (shared libraries' pages, malloc arenas, threads' stacks:
+    docs/benchmarks.md, "Memory of a build worker"), which a scene-build worker would otherwise
+    carry through every case after its first deformed object. Spawned, not forked: the worker
+    holds MuJoCo models and threads a fork would copy. The child imports `vpro_assets` first, so
+    its numpy kernels are pinned as this process's are (the bytes are the same: tested)."""
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=1, mp_context=context) as child:
+        return child.submit(
+            _generate_measured,
+            category,
+            deformation,
+            severity,
+            out_dir,
+            coacd_params=coacd_params,
+            force=True,  # the caller found no current object
+            fit_scale=fit_scale,
+        ).result()
+
+
+def _generate_measured(*args, **kwargs) -> GeneratedObject:
+    """`generate_deformed_object` with this (child) process's peak memory in the result."""
+    return dataclasses.replace(generate_deformed_object(*args, **kwargs), peak_rss_mb=peak_rss_mb())
 
 
 def load_generated(out_dir: Path | str, name: str, key: dict | None = None) -> GeneratedObject | None:

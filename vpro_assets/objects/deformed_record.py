@@ -35,6 +35,7 @@ class GeneratedObject:
     record: dict
     cached: bool = False
     timings: dict[str, float] = field(default_factory=dict)  # seconds per stage (empty when cached)
+    peak_rss_mb: float = 0.0  # of the child process it was generated in (`isolate`), else 0
 
     def path(self, role: str) -> Path:
         return self.out_dir / next(f.path for f in self.files if f.role == role)

@@ -34,12 +34,13 @@ from vpro_assets.core import mjcache, numerics, paths
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import canonical_json, sha256_bytes
+from vpro_assets.core.memory import peak_rss_mb
 from vpro_assets.objects.registry import register_mjcf_object
 from vpro_assets.scene import bddl_doc, case_key, plugins, sim, state_files
 from vpro_assets.scene.base_scene import BaseScene, base_scene
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.init_gen import trial_state
-from vpro_assets.scene.stages import StageClock, peak_rss_mb
+from vpro_assets.scene.stages import StageClock
 from vpro_assets.scene.variant import GeneratedObject, SceneVariant
 
 log = logging.getLogger(__name__)
@@ -55,11 +56,13 @@ class CaseResult:
     files: dict = field(default_factory=dict)  # relative path -> sha256
     physics: dict = field(default_factory=dict)  # stage -> seconds of MuJoCo in it (inside physics.metered())
     peak_rss_mb: float = 0.0  # the worker's largest resident memory when the case ended
+    peak_child_rss_mb: float = 0.0  # and that of its largest child (a generated object's), if any
 
 
-def ensure_objects(generated: list[GeneratedObject], case_id: str, stages: dict | None = None) -> dict[str, Path]:
+def ensure_objects(generated: list[GeneratedObject], case_id: str, clock: StageClock | None = None) -> dict[str, Path]:
     """Write (once, atomically) and register the generated objects a case needs; the seconds a
-    shared producer reports per stage (mesh work) are added to `stages` as `object_<stage>`."""
+    shared producer reports per stage (mesh work) are added to `clock` as `object_<stage>`, and the
+    peak memory of the child process it generated in, if any."""
     out = {}
     for obj in generated:
         final = paths.objects_root() / obj.name
@@ -68,9 +71,10 @@ def ensure_objects(generated: list[GeneratedObject], case_id: str, stages: dict 
             written = obj.write(paths.objects_root())
             if not isinstance(written, Path):
                 xml = written.xml_path
-                for stage, seconds in written.timings.items():
-                    if stages is not None:
-                        stages[f"object_{stage}"] = stages.get(f"object_{stage}", 0.0) + seconds
+                if clock is not None:
+                    for stage, seconds in written.timings.items():
+                        clock.wall[f"object_{stage}"] = clock.wall.get(f"object_{stage}", 0.0) + seconds
+                    clock.peak_child_rss_mb = max(clock.peak_child_rss_mb, written.peak_rss_mb)
             else:
                 xml = written
         elif not xml.is_file():
@@ -123,7 +127,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
     # "generate" includes the object_* stages (mesh work of generated objects).
     with clock.stage("generate"):
         variant = generator.fn(GenContext(case=case, base=base))
-        ensure_objects(variant.generated_objects, cid, clock.wall)
+        ensure_objects(variant.generated_objects, cid, clock)
     with clock.stage("bddl"):
         text = variant_bddl(case, f"{generator.name}-v{generator.version}", base, variant)
     hashes = _write_case(case, key, generator, base, variant, text, clock)
@@ -135,6 +139,7 @@ def build_case(case: dict, force: bool = False) -> CaseResult:
         files=hashes,
         physics=clock.physics,
         peak_rss_mb=peak_rss_mb(),
+        peak_child_rss_mb=clock.peak_child_rss_mb,
     )
 
 

@@ -4,8 +4,6 @@ of them MuJoCo itself needed (compiling the scene model, mj_step, mj_forward).""
 from __future__ import annotations
 
 import contextlib
-import resource
-import sys
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -17,6 +15,7 @@ from vpro_assets.libero import physics
 class StageClock:
     wall: dict[str, float] = field(default_factory=dict)
     physics: dict[str, float] = field(default_factory=dict)
+    peak_child_rss_mb: float = 0.0  # of the child process a generated object was made in, if any
 
     @contextlib.contextmanager
     def stage(self, name: str) -> Iterator[None]:
@@ -28,9 +27,3 @@ class StageClock:
             used = physics.COUNTERS.physics_seconds() - mj
             if used:
                 self.physics[name] = self.physics.get(name, 0.0) + used
-
-
-def peak_rss_mb() -> float:
-    """The largest resident memory of this process so far (MB)."""
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux, bytes on macOS
-    return peak / (2**20 if sys.platform == "darwin" else 2**10)

@@ -53,6 +53,7 @@ class WrittenObject(Protocol):
     """What a shared producer's `write` may return instead of the XML path: a record of it."""
 
     timings: dict[str, float]  # seconds per stage of the producer's own work
+    peak_rss_mb: float  # of the child process the producer worked in, 0 if none
 
     @property
     def xml_path(self) -> Path: ...
