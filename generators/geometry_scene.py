@@ -10,24 +10,35 @@ fit that region as the original does. The room is measured on the base scene as 
 (`vpro_assets.scene.receptacle`: the height between the floor and the ceiling, and the horizontal
 room about the region's centre where LIBERO's `In` and a policy put the object's body, an opened
 drawer's mouth ending at the fixture's front over it), and so is the original target (its reach
-from its vertical axis, its height). The deformed target may reach and stand at most
+from its vertical axis, its height, at rest in LIBERO's settled first state). The deformed target
+may reach and stand at most
     allowed = max(original's, room - FIT_MARGIN_M)
 along each, so it is never tighter than the original and never closer than FIT_MARGIN_M to the
 receptacle where the original leaves more. Beyond that, the whole deformed mesh is scaled down
 uniformly about the bottom of its axis (`fit_scale`, rounded down to a hundredth): the deformation
 keeps its kind and severity (a multipeak-s3 bowl stays five-lobed with its 18% lobes, relative to
-its radius), only its size goes. Every deformation keeps the height, so in LIBERO's receptacles the
-bound that acts is the reach: libero_10-03's bottom drawer, opened, leaves 5.7 cm about its
-centre before the middle drawer's front and LIBERO's bowl reaches 5.4 cm, so the bowls that reach
-farther (multipeak, twist, asymmetric s2-s3) are scaled to about the original's reach. A fitted
-target is an object of its own (`..._fit85`), so every other case keeps its object and bytes.
-The deformed target's reach and height are estimated as the original's times the deformed solid's
-ratios (`max_radius_ratio`, `extent_ratios` of its record); the built hulls, made from the visual
-mesh, reach about 3 mm farther than LIBERO's collision geoms, so the fitted bowls of libero_10-03
-reach about the room itself, not the room less FIT_MARGIN_M (measured: docs/geometry.md).
+its radius), only its size goes. A fitted target is an object of its own (`..._fit81`), so every
+other case keeps its object and bytes.
 
-The fit is revision "fit1" of these generators for the cases it concerns (those whose goal puts the
-target into an openable fixture, `fits_receptacle`): it enters their input hash, not their files.
+The deformed target is measured as the scene will hold it: the generated (unfitted) object itself,
+its collision hulls (made from the visual mesh, about 3 mm wider than LIBERO's collision geoms of
+the same bowl) at rest on a table (`receptacle.resting_size`, the same measure `object_size` takes
+of the original in the scene). The scaling keeps the shape and the bottom, so reach and height
+scale with it and the scale follows from that measure; the fitted object, as the build makes it
+(coacd decomposes the scaled solid anew), is then measured the same way and taken a hundredth
+smaller while it still oversteps. So the stated margin holds for the hulls the simulator collides.
+Both sides of each comparison are collision geometry as MuJoCo has it at rest; `allowed` keeps the
+original's own measure (LIBERO's collision geoms), so where it acts (a room the original leaves
+less than FIT_MARGIN_M) the deformed target takes the room LIBERO's own collision bowl takes.
+Every deformation keeps the height, so in LIBERO's receptacles the bound that acts is the reach:
+libero_10-03's bottom drawer, opened, leaves 5.68 cm about its centre before the middle drawer's
+front (LIBERO's bowl reaches 5.39 cm), so the bowls whose hulls reach farther than 5.43 cm
+(multipeak, twist, asymmetric) are scaled to reach at most that (docs/geometry.md).
+
+The fit is revision "fit2" of these generators for the cases it concerns (those whose goal puts the
+target into an openable fixture, `fits_receptacle`): it enters their input hash, not their files
+(fit1 measured the deformed target as LIBERO's collision bowl times the deformed solid's ratios,
+which left the fitted bowls about 3 mm wider than stated).
 """
 
 from __future__ import annotations
@@ -40,12 +51,14 @@ from vpro_assets.libero.tasks import get_task
 from vpro_assets.objects import deformed as tg
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
-from vpro_assets.scene.receptacle import Clearance, clearance, object_size
+from vpro_assets.scene.receptacle import Clearance, clearance, object_size, resting_size
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
 FIT_MARGIN_M = 0.0025  # the room a fitted target leaves where the original leaves more
 # (LIBERO's black bowl in libero_10-03's bottom drawer: 2.9 mm of reach, 6.8 mm of height)
-FIT_REVISION = "fit1"
+FIT_REVISION = "fit2"
+
+Size = tuple[float, float]  # (reach from the vertical axis, height), metres
 
 
 def _deformed(category: str, deformation: str, severity: int, fit_scale: float = 1.0) -> GeneratedObject:
@@ -73,13 +86,30 @@ def fit_revision(case: dict) -> str:
     return FIT_REVISION if fits_receptacle(case) else ""
 
 
-def fit_scale(room: Clearance, reach: float, height: float, reach_ratio: float, height_ratio: float) -> float:
-    """The largest multiple of FIT_STEP (at most 1) that scales a deformed target (the original's
-    `reach` and `height` times the deformation's ratios) into what `room` allows (module doc)."""
-    allowed_reach = max(reach, room.radius - FIT_MARGIN_M)
-    allowed_height = max(height, room.height - FIT_MARGIN_M)
-    scale = min(1.0, allowed_reach / (reach * reach_ratio), allowed_height / (height * height_ratio))
-    return math.floor(scale / tg.FIT_STEP + 1e-9) * tg.FIT_STEP if scale < 1.0 else 1.0
+def allowed(room: Clearance, original: Size) -> Size:
+    """The most a deformed target may reach and stand in `room` (module doc)."""
+    return max(original[0], room.radius - FIT_MARGIN_M), max(original[1], room.height - FIT_MARGIN_M)
+
+
+def fits(room: Clearance, original: Size, size: Size) -> bool:
+    reach, height = allowed(room, original)
+    return size[0] <= reach and size[1] <= height
+
+
+def fit_scale(room: Clearance, original: Size, deformed: Size) -> float:
+    """The largest multiple of FIT_STEP (at most 1) that scales a deformed target of size `deformed`
+    into what `room` allows (module doc)."""
+    reach, height = allowed(room, original)
+    scale = min(1.0, reach / deformed[0], height / deformed[1])
+    return _steps(math.floor(scale / tg.FIT_STEP + 1e-9)) if scale < 1.0 else 1.0
+
+
+def _steps(count: int) -> float:
+    return round(count * tg.FIT_STEP, 6)  # 0.95, not 0.9500000000000001, in objects' keys and records
+
+
+def _size_json(size: Size) -> dict:
+    return {"reach": round(size[0], 4), "height": round(size[1], 4)}
 
 
 def _fit(ctx: GenContext, category: str, deformation: str, severity: int) -> tuple[float, dict]:
@@ -92,19 +122,30 @@ def _fit(ctx: GenContext, category: str, deformation: str, severity: int) -> tup
     room = clearance(model, data, region)
     if room is None:
         return 1.0, {}
-    reach, height = object_size(model, data, f"{task.target}_main")
-    # The unfitted object's measures: it is shared by the setting's other cases, so it is made
-    # (or found in the cache) anyway; the fitted one is made by the build from this case's variant.
-    measures = tg.generate_deformed_object(category, deformation, severity, paths.objects_root(), isolate=True).record[
-        "measures"
-    ]
+    original = object_size(model, data, f"{task.target}_main")
     up = tg.up_axis(category)
-    height_ratio = float(measures["extent_ratios"][{"x": 0, "y": 1, "z": 2}[up[1]]])
-    scale = fit_scale(room, reach, height, float(measures["max_radius_ratio"]), height_ratio)
+    # The unfitted object: it is shared by the setting's other cases, so it is made (or found in
+    # the cache) anyway.
+    plain = tg.generate_deformed_object(category, deformation, severity, paths.objects_root(), isolate=True)
+    deformed = resting_size(plain.xml_path, up)
+    scale = fit_scale(room, original, deformed)
+    fitted = deformed
+    # The fitted object as the build will make it (found there in the cache), measured the same way.
+    while scale < 1.0:
+        made = tg.generate_deformed_object(
+            category, deformation, severity, paths.objects_root(), fit_scale=scale, isolate=True
+        )
+        fitted = resting_size(made.xml_path, up)
+        if fits(room, original, fitted) or tg.check_fit_scale(scale) == 1:
+            break
+        scale = _steps(tg.check_fit_scale(scale) - 1)
     return scale, {
         "room": {k: round(v, 4) if isinstance(v, float) else v for k, v in room.to_json().items()},
-        "original": {"reach": round(reach, 4), "height": round(height, 4)},
+        "original": _size_json(original),
+        "deformed": _size_json(deformed),
+        "allowed": _size_json(allowed(room, original)),
         "fit_scale": scale,
+        **({"fitted": _size_json(fitted)} if scale < 1.0 else {}),
     }
 
 

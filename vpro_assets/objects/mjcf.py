@@ -158,10 +158,10 @@ class DropResult:
         return not self.warnings and self.tilt <= max_tilt and self.drift <= max_drift and self.turn <= max_turn
 
 
-def drop_test(
-    object_xml_path, up_axis: str = "+z", clearance: float = 0.003, seconds: float = 2.0, window: float = 0.5
-) -> DropResult:
-    """Drop the object (upright, `clearance` above the table top) and measure how it rests."""
+def dropped_world(object_xml_path, up_axis: str = "+z", clearance: float = 0.003) -> tuple:
+    """(MjModel, MjData) of the drop-test world (`drop_test_xml`) with the object upright (its
+    `up_axis` turned to the world's +z, as LIBERO places it), its lowest collision point `clearance`
+    above the table top: the state set, not yet stepped; the object's body is `object`."""
     rotate = {"+z": (1.0, 0.0, 0.0, 0.0), "+y": (np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0)}
     if up_axis not in rotate:
         raise InvalidParameterError(f"up axis {up_axis!r} not supported by the drop test")
@@ -176,6 +176,15 @@ def drop_test(
         if model.geom_bodyid[g] == body and model.geom_group[g] == 0
     )
     data.qpos[2] = 1.0 - lowest + clearance
+    return model, data
+
+
+def drop_test(
+    object_xml_path, up_axis: str = "+z", clearance: float = 0.003, seconds: float = 2.0, window: float = 0.5
+) -> DropResult:
+    """Drop the object (upright, `clearance` above the table top) and measure how it rests."""
+    model, data = dropped_world(object_xml_path, up_axis, clearance)
+    body = model.body("object").id
     steps, window_steps = int(seconds / model.opt.timestep), int(window / model.opt.timestep)
     if not 0 < window_steps <= steps:
         raise InvalidParameterError(f"drop test window {window} s outside (0, {seconds}] s")
