@@ -137,7 +137,7 @@ def open_(world: World, region: str) -> Actions:
     out = np.cross(axis * sign, u)  # motion of the door's points while it opens: out of its front
     hover = _handle_point(world, joint, u, out) + out * HOVER_OUT_M + [0, 0, HOVER_M]
     orient0 = _handle_orient(world, joint, u)
-    # A hand lower than that comes up first (not turning), turns there, then comes across.
+    # A hand lower than the hover (or the door's top) comes up first, not turning, turns there, then comes across.
     top = float(geom_corners(world.m, world.d, world.joint_geoms(joint.id))[:, 2].max())
     up = np.array([*world.eef()[:2], max(hover[2], top + OVER_TOP_M)])
     if world.eef()[2] < up[2] - RISE_TOL_M:
