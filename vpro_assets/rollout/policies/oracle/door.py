@@ -15,6 +15,24 @@ the upper standoff), and closes on it. It then swings the grasp point about the 
 little past the door's current angle, the hand turning about the vertical with the door, until
 LIBERO's `Open` check holds and the door is a margin past it (or the bar slips out); then it lets
 go, backs off the door and rises over its top, so that the next skill's path does not sweep it shut.
+
+A door part open swings at a touch (libero_10-09's precondition case -open25 starts the microwave at
+-0.33 rad), so the hand comes to the handle without touching the door:
+- The grip site goes 1.6 cm under the bar's top, not to its middle: the palm, 2.6 cm over the grip
+  site and 6.6 cm wide, then passes over the bar. Aimed at the middle (7.5 cm under the top), the
+  palm came down on the bar's top and pushed the door shut (-0.26 to -0.23 rad), and the fingers
+  closed on nothing; a shut door (at its range's end) does not move, which hid it.
+- A hand lower than its hover over the handle (after pushing the mug out of the swing, it is at the
+  mug's height) rises first without turning, turns there, and only then comes across: moving and
+  turning at once, the 21 cm palm swept the bar on its way (-0.33 to -0.26 rad in trial 0 of 10).
+  The turn is commanded at most TURN_SPEED of the action's full turn: at full speed, a 1.5 rad turn
+  drew the grip site 26 cm off its place and down to the bar's height (trial 5).
+- Of the two finger signs, the hand takes the one that leaves the wrist's last joint more room
+  through the turn to it and the door's turn after it (the hand turning with the door to its
+  range's open end at most): the sign nearer the hand's orientation after the push needed the
+  joint 1.2 rad past its limit; the arm turned there anyway, then could not follow the door, and
+  the bar slipped out at -0.41 rad (trial 9).
+- The grip point is taken again once the hand is over the handle, where the door is then.
 """
 
 from __future__ import annotations
@@ -32,12 +50,19 @@ EDGE_INSET = 0.8  # push at this fraction of the door's radius
 STANDOFF_M = 0.03  # grip site this far from the door's face before pushing
 OPEN_MARGIN_RAD = 0.2  # this far past where LIBERO's Open first holds (0.35 cost libero_10-09 ~15 steps)
 OPEN_STEPS = 200
-DESCEND_STEPS = 20  # the fingers may stop short on the bar
+DESCEND_STEPS = 20  # the palm may stop short on the door's top
 SWING_SPEED = 0.8
 LOST_GAP_M = 0.01  # fingers closer than this hold nothing
 CLEAR_TOP_M = 0.1  # the grip site this far over the door's top after letting go
 RELEASE_STEPS = 8  # the fingers open off a 2 cm bar
 STALL_STEPS = 5  # moves toward the door end when the hand stops this many steps (resting on the door)
+HOVER_M = 0.06  # the grip site this far over the handle's grip point before coming down on it
+HOVER_OUT_M = 0.05  # and this far in front of it
+OVER_TOP_M = 0.02  # the grip site at least this far over the door's top while it turns and comes across
+RISE_TOL_M, RISE_STEPS = 0.03, 40
+TURN_STEPS = 30
+TURN_SPEED = 0.5  # of the action's full turn (0.5 rad): a full-speed turn of 1.5 rad drew the grip site 26 cm off
+TURN_DONE_RAD = 0.15  # the move across finishes a turn this close
 GRIP_BELOW_TOP_M = 0.016  # the grip site this far below the bar's top (lower, the fingers meet its upper standoff)
 
 
@@ -68,8 +93,33 @@ def _handle_point(world: World, joint, u: np.ndarray, out: np.ndarray) -> np.nda
     front = [g for g in standing if reach[g] > max(reach.values()) - 0.003]
     bar = max(front, key=lambda g: float(np.ptp(corners[g][:, 2])))
     point = (corners[bar].min(0) + corners[bar].max(0)) / 2
-    point[2] = min(point[2], float(corners[bar][:, 2].max()) - GRIP_BELOW_TOP_M)
+    point[2] = float(corners[bar][:, 2].max()) - GRIP_BELOW_TOP_M
     return point
+
+
+def _handle_orient(world: World, joint, u: np.ndarray) -> np.ndarray:
+    """The hand pointing down, its fingers closing along `u`: of the two finger signs, the one that
+    leaves the wrist's last joint more room through the turn to it and then the door's turn, the
+    hand turning with the door up to its range's open end."""
+    axis = world.d.xaxis[world.wrist_joint]
+    swing = (joint.open_end - world.qpos(joint.id)) * float(world.d.xaxis[joint.id] @ axis)
+
+    def room(goal: np.ndarray) -> float:
+        turn = float(motion.rotation_error(world.eef_mat(), goal) @ axis)
+        return min(world.wrist_room(turn), world.wrist_room(turn + swing))
+
+    return max((motion.facing([0, 0, -1], f * u) for f in (1.0, -1.0)), key=room)
+
+
+def _turn_at(world: World, at: np.ndarray, orient: np.ndarray) -> Actions:
+    """Turn the open hand to `orient` holding the grip site at `at`, the turn commanded at most
+    TURN_SPEED of the action's full rotation."""
+    for _ in range(TURN_STEPS):
+        if np.linalg.norm(motion.rotation_error(world.eef_mat(), orient)) < TURN_DONE_RAD:
+            return
+        action = motion.action_to(world, at, OPEN, orient)
+        action[3:6] *= min(1.0, TURN_SPEED / float(np.abs(action[3:6]).max()))
+        yield action
 
 
 def _turn(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -85,10 +135,21 @@ def open_(world: World, region: str) -> Actions:
     sign = joint.open_sign  # the joint's direction of opening
     anchor, u, _, _, _ = _door_frame(world, joint)
     out = np.cross(axis * sign, u)  # motion of the door's points while it opens: out of its front
+    hover = _handle_point(world, joint, u, out) + out * HOVER_OUT_M + [0, 0, HOVER_M]
+    orient0 = _handle_orient(world, joint, u)
+    # A hand lower than the hover (or the door's top) comes up first, not turning, turns there, then comes across.
+    top = float(geom_corners(world.m, world.d, world.joint_geoms(joint.id))[:, 2].max())
+    up = np.array([*world.eef()[:2], max(hover[2], top + OVER_TOP_M)])
+    if world.eef()[2] < up[2] - RISE_TOL_M:
+        yield from motion.move_to(world, up, OPEN, world.eef_mat(), tol=RISE_TOL_M, max_steps=RISE_STEPS)
+        yield from _turn_at(world, up, orient0)
+    yield from motion.move_to(world, hover, OPEN, orient0, tol=0.02, max_steps=100)
+    # The handle where the door is now (a partly open door swings away at a touch).
+    anchor, u, _, _, _ = _door_frame(world, joint)
+    out = np.cross(axis * sign, u)
     grip_pt = _handle_point(world, joint, u, out)
     q0 = world.qpos(joint.id)
     orient0 = motion.facing([0, 0, -1], u, world.eef_mat())
-    yield from motion.move_to(world, grip_pt + out * 0.05 + [0, 0, 0.12], OPEN, orient0, tol=0.02, max_steps=100)
     yield from motion.move_to(
         world, grip_pt, OPEN, orient0, tol=0.01, max_steps=DESCEND_STEPS, speed=0.6, stall_steps=STALL_STEPS
     )
