@@ -71,7 +71,8 @@ def test_a_fitted_object_that_oversteps_as_made_is_taken_a_hundredth_smaller(mon
     """coacd decomposes the scaled solid anew, so the rule measures the fitted object as made."""
     made = []
 
-    def generate(category, deformation, severity, root, fit_scale=1.0):
+    def generate(category, deformation, severity, root, fit_scale=1.0, isolate=False):
+        assert isolate  # made in the build worker's child process
         made.append(fit_scale)
         return SimpleNamespace(xml_path=str(fit_scale))
 
