@@ -19,14 +19,15 @@ met the cans standing 5-10 cm behind libero_10-01's cream cheese in every direct
 
 from __future__ import annotations
 
+from collections.abc import Generator
 from dataclasses import dataclass
 
 import numpy as np
 
 from vpro_assets.rollout.policies.oracle import motion, push
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
-from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation, hand_stop, pinch_part
-from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
+from vpro_assets.rollout.policies.oracle.grasp import Grasp, grasp_orientation, hand_stop, plan_grasp
+from vpro_assets.rollout.policies.oracle.motion import CLOSE
 from vpro_assets.rollout.policies.oracle.world import World
 
 DIRECTIONS = 16
@@ -48,11 +49,12 @@ PATH_MARGIN_M = 0.003  # on its way the object passes this close to its neighbou
 YAWS_DEG = (0.0, 15.0, -15.0, 30.0, -30.0, 45.0, -45.0, 60.0, -60.0, 90.0)
 
 
-def blocked(world: World, instance: str) -> bool:
+def blocked(world: World, instance: str, grasp: Grasp | None = None) -> bool:
     """Whether the open hand stops too high (`_too_high`) over the pinch `grasp` takes across
     `instance` because something stands where it comes down; False when the object is not taken by
-    a pinch of its narrow top (`grasp.pinch_part`)."""
-    part = pinch_part(world, instance)
+    a pinch of its narrow top (the grasp's `part`). `grasp`: `grasp.plan_grasp`'s, in this state
+    (planned here when not given)."""
+    part = (plan_grasp(world, instance) if grasp is None else grasp).part
     if part is None:
         return False
     pts, z = part
@@ -93,12 +95,13 @@ class Push:
     behind: float  # the grip site starts this far behind the object
 
 
-def clearing_shift(world: World, instance: str) -> Push | None:
+def clearing_shift(world: World, instance: str, grasp: Grasp | None = None) -> Push | None:
     """The shortest push after which the open hand comes
     down to the pinch (`blocked` no longer holds), the object on the way clear of its neighbours
     and over what it stands on, and the pushing hand (at the first of YAWS_DEG that fits), coming
-    down behind it and following it, clear of everything; None when none within MAX_M does."""
-    part = pinch_part(world, instance)
+    down behind it and following it, clear of everything; None when none within MAX_M does.
+    `grasp`: as `blocked`'s."""
+    part = (plan_grasp(world, instance) if grasp is None else grasp).part
     if part is None:
         return None
     pts, z = part
@@ -188,14 +191,15 @@ def _hand_meets(
     return False
 
 
-def clear_for_pick(world: World, instance: str) -> Actions:
+def clear_for_pick(world: World, instance: str, grasp: Grasp) -> Generator[np.ndarray, None, bool]:
     """Push `instance` clear (`clearing_shift`) when a neighbour stops the hand over its pinch;
-    nothing otherwise, or when no push clears it."""
-    if not blocked(world, instance):
-        return
-    shift = clearing_shift(world, instance)
+    nothing otherwise, or when no push clears it. `grasp`: `grasp.plan_grasp`'s in this state.
+    Returns whether it pushed (else the state is unchanged and `grasp` still holds)."""
+    if not blocked(world, instance, grasp):
+        return False
+    shift = clearing_shift(world, instance, grasp)
     if shift is None:
-        return
+        return False
     direction = shift.direction[:2]
     goal = world.body_pos(instance)[:2] + direction * shift.dist
     # `push`'s leg: `inside` negative puts the fingertips behind the object's back, not inside its rim.
@@ -213,3 +217,4 @@ def clear_for_pick(world: World, instance: str) -> Actions:
     yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, shift.orient, tol=0.02, max_steps=60)
     yield from motion.move_to(world, [*start, z], CLOSE, shift.orient, tol=0.015, max_steps=120)
     yield from push.push_leg(world, instance, leg, lambda: float(world.body_pos(instance)[:2] @ direction) >= depth)
+    return True
