@@ -148,9 +148,14 @@ def _turn(v: np.ndarray, deg: float) -> np.ndarray:
 def _meets(boxes: np.ndarray, own: np.ndarray) -> bool:
     """Whether any of the object's boxes `own` comes within PATH_MARGIN_M of an obstacle box (in
     plan, at heights they share; not what it stands on)."""
+    if not len(own):
+        return False
     lo, hi = own[None, :, 0] - PATH_MARGIN_M, own[None, :, 1] + PATH_MARGIN_M
     lo[..., 2], hi[..., 2] = own[None, :, 0, 2] + 0.005, own[None, :, 1, 2]
-    return bool(np.any(np.all(boxes[:, None, 0] < hi, axis=2) & np.all(boxes[:, None, 1] > lo, axis=2)))
+    # Only a box reaching into the box around all of `own`'s can meet one of them: the pairs are
+    # compared for those few (the same comparisons of the same numbers).
+    near = boxes[np.all(boxes[:, 0] < hi[0].max(0), axis=1) & np.all(boxes[:, 1] > lo[0].min(0), axis=1)]
+    return bool(np.any(np.all(near[:, None, 0] < hi, axis=2) & np.all(near[:, None, 1] > lo, axis=2)))
 
 
 def _hand_meets(
@@ -177,17 +182,18 @@ def _hand_meets(
     obstacle = near[:, 0][:, None] + corners[None] * (near[:, 1] - near[:, 0])[:, None]  # (N, 8, 3)
     down = [start + [0.0, 0.0, h] for h in np.linspace(0.0, HOVER_M, 6)]
     along = [start + direction * s for s in np.linspace(0.0, dist, max(2, int(dist / STEP_M) + 1))]
-    for pose in down + along:
+    if not hand:
+        return False
+    lo, hi = np.array([part.min(0) for part in hand]), np.array([part.max(0) for part in hand])  # (P, 3)
+    # The parts' box corners turned with the hand, the same at every pose: (P * 8, 3).
+    turned = np.concatenate([(lo_ + corners * (hi_ - lo_)) @ orient.T for lo_, hi_ in zip(lo, hi, strict=True)])
+    for pose in down + along:  # every part at once: whether any meets a box, as part by part
         local = (obstacle.reshape(-1, 3) - pose) @ orient  # obstacle corners in the grip frame
-        for part in hand:
-            lo, hi = part.min(0), part.max(0)
-            if np.any(np.all((local > lo) & (local < hi), axis=1)):
-                return True
-            world_pts = pose + (lo + corners * (hi - lo)) @ orient.T
-            if np.any(
-                np.all((world_pts[:, None] > near[None, :, 0]) & (world_pts[:, None] < near[None, :, 1]), axis=2)
-            ):
-                return True
+        if np.any(np.all((local[None] > lo[:, None]) & (local[None] < hi[:, None]), axis=2)):
+            return True
+        world_pts = pose + turned
+        if np.any(np.all((world_pts[:, None] > near[None, :, 0]) & (world_pts[:, None] < near[None, :, 1]), axis=2)):
+            return True
     return False
 
 
