@@ -7,6 +7,7 @@ here to the computation it replaces (on random boxes, or on a real scene), bit f
 
 from __future__ import annotations
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -20,7 +21,7 @@ from vpro_assets.rollout.contacts import ContactTracker
 from vpro_assets.rollout.episode import EpisodeSession, EpisodeSettings
 from vpro_assets.rollout.policies.oracle import clearance, nudge, push
 from vpro_assets.rollout.policies.oracle.clearance import PIECE_M, obstacle_boxes
-from vpro_assets.rollout.policies.oracle.grasp import pick
+from vpro_assets.rollout.policies.oracle.grasp import hand_stop, narrow_top, pick, plan_grasp
 from vpro_assets.rollout.policies.oracle.policy import OraclePolicy
 
 
@@ -228,3 +229,43 @@ def test_the_pushing_hand_meets_what_it_met_part_by_part(scene):
             assert got == _hand_meets_plain(w, obj, boxes, hand, orient, d, dist, behind)
             answers.append(got)
     assert 0 < sum(answers) < len(answers)  # both answers were tested
+
+
+def _clearing_shift_plain(world, instance, part):
+    """`nudge.clearing_shift` with every candidate push made before any is tried, as first written."""
+    pts, z = part
+    top = float(world.points(instance)[:, 2].max())
+    boxes, own = obstacle_boxes(world, (instance,)), clearance.object_boxes(world, instance)
+    hand = nudge.closed_hand(world)
+    dirs = [np.array([np.cos(a), np.sin(a), 0.0]) for a in np.linspace(0, 2 * np.pi, nudge.DIRECTIONS, endpoint=False)]
+    candidates = []
+    for dist in np.arange(nudge.STEP_M, nudge.MAX_M + 1e-9, nudge.STEP_M):
+        for d in dirs:
+            if nudge._too_high(hand_stop(boxes, pts + d * dist, z), z, top):
+                continue
+            path = [d * s for s in np.arange(nudge.STEP_M, dist + nudge.MARGIN_M + 1e-9, nudge.STEP_M)]
+            if not any(nudge._meets(boxes, own + p) for p in path) and nudge._on_support(boxes, own, own + path[-1]):
+                candidates.append((d, float(dist + nudge.MARGIN_M)))
+    for behind in nudge.BEHIND_M:
+        for d, dist in candidates:
+            for yaw in nudge.YAWS_DEG:
+                orient = nudge.grasp_orientation(world, nudge._turn(d, yaw))
+                if not nudge._hand_meets(world, instance, boxes, hand, orient, d, dist, behind):
+                    return nudge.Push(d, dist, orient, behind)
+    return None
+
+
+def test_the_clearing_push_made_as_needed_is_the_one_made_from_all_candidates(scene):
+    """`nudge.clearing_shift` makes its candidate pushes as the search needs them: on libero_10-01's
+    cream cheese (as if held by its narrow top, so the search runs; next to the milk carton), the
+    push of the plain search that makes all of them first, for the top and for a pinch lower down."""
+    s = scene("libero_10-01/normal")
+    w, obj = s.world, "cream_cheese_1"
+    top = narrow_top(w, obj)
+    assert top is not None
+    for part in (top, (top[0], top[1] - 0.01)):
+        grasp = replace(plan_grasp(w, obj), hung=True, part=part)
+        got, plain = nudge.clearing_shift(w, obj, grasp), _clearing_shift_plain(w, obj, part)
+        assert got is not None and plain is not None  # a push found: the search ran its course
+        assert np.array_equal(got.direction, plain.direction) and np.array_equal(got.orient, plain.orient)
+        assert (got.dist, got.behind) == (plain.dist, plain.behind)

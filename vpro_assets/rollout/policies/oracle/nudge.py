@@ -19,7 +19,7 @@ met the cans standing 5-10 cm behind libero_10-01's cream cheese in every direct
 
 from __future__ import annotations
 
-from collections.abc import Generator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,20 +111,36 @@ def clearing_shift(world: World, instance: str, grasp: Grasp | None = None) -> P
     own = object_boxes(world, instance)
     hand = closed_hand(world)
     dirs = [np.array([np.cos(a), np.sin(a), 0.0]) for a in np.linspace(0, 2 * np.pi, DIRECTIONS, endpoint=False)]
-    candidates = []  # (direction, distance) that clear the hand over the pinch, shortest first
-    for dist in np.arange(STEP_M, MAX_M + 1e-9, STEP_M):
-        for d in dirs:
-            if _too_high(hand_stop(boxes, pts + d * dist, z), z, top):
-                continue
-            path = [d * s for s in np.arange(STEP_M, dist + MARGIN_M + 1e-9, STEP_M)]
-            if not any(_meets(boxes, own + p) for p in path) and _on_support(boxes, own, own + path[-1]):
-                candidates.append((d, float(dist + MARGIN_M)))
-    for behind in BEHIND_M:
-        for d, dist in candidates:
-            for yaw in YAWS_DEG:
-                orient = grasp_orientation(world, _turn(d, yaw))
-                if not _hand_meets(world, instance, boxes, hand, orient, d, dist, behind):
-                    return Push(d, dist, orient, behind)
+
+    def candidates() -> Iterator[tuple[np.ndarray, float]]:
+        """(direction, distance) that clear the hand over the pinch, shortest first."""
+        for dist in np.arange(STEP_M, MAX_M + 1e-9, STEP_M):
+            for d in dirs:
+                if _too_high(hand_stop(boxes, pts + d * dist, z), z, top):
+                    continue
+                path = [d * s for s in np.arange(STEP_M, dist + MARGIN_M + 1e-9, STEP_M)]
+                if not any(_meets(boxes, own + p) for p in path) and _on_support(boxes, own, own + path[-1]):
+                    yield d, float(dist + MARGIN_M)
+
+    def fitting(d: np.ndarray, dist: float, behind: float) -> Push | None:
+        for yaw in YAWS_DEG:
+            orient = grasp_orientation(world, _turn(d, yaw))
+            if not _hand_meets(world, instance, boxes, hand, orient, d, dist, behind):
+                return Push(d, dist, orient, behind)
+        return None
+
+    # Every candidate with the first of BEHIND_M, then with the next: the candidates are made as the
+    # first pass needs them (the measure of each is the hand's stop over the shifted pinch, a sweep
+    # of 180 widths), so a short push that fits ends the search before the longer ones are made.
+    made: list[tuple[np.ndarray, float]] = []
+    for d, dist in candidates():
+        made.append((d, dist))
+        if (push_ := fitting(d, dist, BEHIND_M[0])) is not None:
+            return push_
+    for behind in BEHIND_M[1:]:
+        for d, dist in made:
+            if (push_ := fitting(d, dist, behind)) is not None:
+                return push_
     return None
 
 
