@@ -58,6 +58,32 @@ def test_split_substeps_step_as_robosuite_bit_for_bit(task_key, render, steps):
         assert ref[2:] == got[2:], f"{task_key}: reward or success differs after step {step}"
 
 
+def test_an_unobserved_step_leaves_the_state_an_observed_step_leaves():
+    """`physics.unobserved_step` (render-free episodes of the oracle, which reads no observation)
+    skips robosuite's observables: after every one of 80 steps of libero_goal-03 (drawers, the bowl
+    and the plate in contact, the gripper opening and closing) the simulator's state, the success
+    and LIBERO's step counter and time are those of the observed step, bit for bit."""
+    task = get_task("libero_goal-03")
+    runs = []
+    for observe in (True, False):
+        env = make_env(task, render=False)
+        try:
+            seeded_reset(env, 5)
+            env.set_init_state(libero_init_states(task)[0])
+            out = []
+            for action in _actions(80):
+                done = env.step(action)[2] if observe else physics.unobserved_step(env, action)
+                data, inner = env.env.sim.data._data, env.env
+                state = np.concatenate([data.qpos, data.qvel, data.act, data.ctrl, data.qacc_warmstart, data.qacc,
+                                        data.xpos.ravel(), data.sensordata, [data.time]])  # fmt: skip
+                out.append((state.tobytes(), bool(done), inner.timestep, inner.cur_time))
+            runs.append(out)
+        finally:
+            env.close()
+    for step, (observed, unobserved) in enumerate(zip(*runs, strict=True)):
+        assert observed == unobserved, f"step {step}"
+
+
 def test_a_certified_trial_ends_in_its_recorded_final_state():
     """The committed certificate's trial 1 of libero_spatial-00 (recorded with robosuite's own step,
     on another machine's CPU) replays with split substeps to the same steps and final-state

@@ -139,6 +139,7 @@ def test_bowl_under_the_opened_drawer_is_taken_from_beside_it(scene, trial):
     entry = side_entry(boxes, grasp)
     assert reach_height(boxes, grasp.point + entry, grasp.axis, WITH_WRIST) <= grasp.point[2]
     assert entry.any() or trial != 4
+    np.testing.assert_array_equal(grasp.entry, entry)  # the planned grasp carries it: `pick` measures it no more
     z0 = s.world.body_pos(bowl)[2]
     s.run(pick(s.world, bowl), limit=150)
     assert s.world.body_pos(bowl)[2] - z0 > 0.05 and s.world.held(bowl)

@@ -10,7 +10,7 @@ from conftest import build_scene_case
 
 from vpro_assets.rollout.policies.oracle import nudge
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
-from vpro_assets.rollout.policies.oracle.grasp import hand_stop, pick, pinch_part
+from vpro_assets.rollout.policies.oracle.grasp import hand_stop, narrow_top, pick, plan_grasp
 
 PUT_IN = "pick_place(in akita_black_bowl_1 white_cabinet_1_bottom_region)"
 CLOSE = "drawer(close white_cabinet_1_bottom_region)"
@@ -63,14 +63,15 @@ def test_hand_stop_over_a_pinch_and_when_it_is_too_high():
 def test_a_whole_pinch_is_not_pushed_clear(scene):
     """libero_10-01/normal, trial 0: the cream cheese fits the open fingers whole, and in the hand
     model the palm over its best pinch lies over the milk carton 8.5 cm up; the Normal task is solved
-    so (9 of 10 trials in the certificate), so only a pinch by the narrow top (`pinch_part`) is
-    pushed clear."""
+    so (9 of 10 trials in the certificate), so only a pinch by the narrow top (a grasp with a `part`)
+    is pushed clear."""
     s = scene("libero_10-01/normal", 0)
     obj = "cream_cheese_1"
     pts = s.world.points(obj)
     z = float(pts[:, 2].max()) - 0.01
     assert hand_stop(obstacle_boxes(s.world, (obj,)), pts, z) > 0.05
-    assert pinch_part(s.world, obj) is None and not nudge.blocked(s.world, obj)
+    grasp = plan_grasp(s.world, obj)
+    assert grasp.part is None and not grasp.hung and not nudge.blocked(s.world, obj)
 
 
 @pytest.mark.slow
@@ -86,15 +87,19 @@ def test_twisted_cream_cheese_pushed_clear_of_its_neighbour_then_lifted(scene, c
     s = scene(case_id, 1)
     obj = "cream_cheese_1"
     assert nudge.blocked(s.world, obj)
-    pts, z = pinch_part(s.world, obj)
+    grasp = plan_grasp(s.world, obj)
+    assert grasp.hung and grasp.part is not None
+    pts, z = grasp.part
+    top = narrow_top(s.world, obj)  # the part the grasp is planned across
+    assert top is not None and np.array_equal(pts, top[0]) and z == top[1]
     before = hand_stop(obstacle_boxes(s.world, (obj,)), pts, z)
     shift = nudge.clearing_shift(s.world, obj)
     assert shift is not None and shift.dist <= nudge.MAX_M
     start = s.world.body_pos(obj)[:2].copy()
-    s.run(nudge.clear_for_pick(s.world, obj), limit=260)
+    s.run(nudge.clear_for_pick(s.world, obj, plan_grasp(s.world, obj)), limit=260)
     moved = s.world.body_pos(obj)[:2] - start
     assert float(moved @ shift.direction[:2]) > shift.dist / 2  # 2.5 of the 4 cm planned here
-    pts, z = pinch_part(s.world, obj)
+    pts, z = plan_grasp(s.world, obj).part
     assert hand_stop(obstacle_boxes(s.world, (obj,)), pts, z) <= before + 1e-6
     z0 = s.world.body_pos(obj)[2]
     s.run(pick(s.world, obj), limit=200)

@@ -38,12 +38,12 @@ class _Arm:
     robot: Any  # robosuite objects: untyped
     controller: Any
     site: int
-    qpos_index: list
-    qvel_index: list
-    arm_actuators: Any
+    qpos_index: np.ndarray  # the controller's index lists as arrays, converted once per control step
+    qvel_index: np.ndarray
+    arm_actuators: np.ndarray
     torque_low: np.ndarray
     torque_high: np.ndarray
-    gripper_actuators: list
+    gripper_actuators: np.ndarray
     gripper_bias: np.ndarray
     gripper_weight: np.ndarray
     gripper_slice: slice
@@ -73,17 +73,18 @@ class Arms:
             dim = ctrl.control_dim
             grippers = [model.actuator_name2id(a) for a in robot.gripper.actuators] if robot.has_gripper else []
             ctrl_range = model.actuator_ctrlrange[grippers]
+            qvel_index = np.asarray(ctrl.qvel_index)
             arms.append(
                 _Arm(
                     robot=robot,
                     controller=ctrl,
                     site=model.site_name2id(ctrl.eef_name),
-                    qpos_index=ctrl.qpos_index,
-                    qvel_index=ctrl.qvel_index,
-                    arm_actuators=robot._ref_joint_actuator_indexes,
+                    qpos_index=np.asarray(ctrl.qpos_index),
+                    qvel_index=qvel_index,
+                    arm_actuators=np.asarray(robot._ref_joint_actuator_indexes),
                     torque_low=model.actuator_ctrlrange[robot._ref_joint_actuator_indexes, 0],
                     torque_high=model.actuator_ctrlrange[robot._ref_joint_actuator_indexes, 1],
-                    gripper_actuators=grippers,
+                    gripper_actuators=np.asarray(grippers, dtype=np.int64),
                     # robosuite's Manipulator.grip_action computes these at every call, the same way
                     gripper_bias=0.5 * (ctrl_range[:, 1] + ctrl_range[:, 0]),
                     gripper_weight=0.5 * (ctrl_range[:, 1] - ctrl_range[:, 0]),
@@ -94,7 +95,12 @@ class Arms:
         return cls(inner, arms)
 
     def update(self, arm: _Arm) -> None:
-        """robosuite's `Controller.update` (forced), the same attributes from the same operations."""
+        """robosuite's `Controller.update` (forced), the same attributes from the same operations.
+        Where robosuite copies a fancy-indexed array again (`np.array(x[index])`, which keeps its
+        memory order), the fancy-indexed array itself: the same values in the same order (C or F).
+        The memory order matters: robosuite's numba kernels compile one version per layout, and
+        their BLAS calls round differently (its mass-matrix block is F-ordered, so it is taken as
+        robosuite takes it)."""
         ctrl, data, nv = arm.controller, self.data, self.model.nv
         ctrl.ee_pos = np.array(data.site_xpos[arm.site])
         ctrl.ee_ori_mat = np.array(data.site_xmat[arm.site].reshape([3, 3]))
@@ -102,11 +108,11 @@ class Arms:
         mujoco.mj_jacSite(self.model, data, jacp, jacr, arm.site)
         ctrl.ee_pos_vel = np.array(np.dot(jacp, data.qvel))
         ctrl.ee_ori_vel = np.array(np.dot(jacr, data.qvel))
-        ctrl.joint_pos = np.array(data.qpos[arm.qpos_index])
-        ctrl.joint_vel = np.array(data.qvel[arm.qvel_index])
-        ctrl.J_pos = np.array(jacp.reshape((3, -1))[:, arm.qvel_index])
-        ctrl.J_ori = np.array(jacr.reshape((3, -1))[:, arm.qvel_index])
-        ctrl.J_full = np.array(np.vstack([ctrl.J_pos, ctrl.J_ori]))
+        ctrl.joint_pos = data.qpos[arm.qpos_index]
+        ctrl.joint_vel = data.qvel[arm.qvel_index]
+        ctrl.J_pos = jacp[:, arm.qvel_index]
+        ctrl.J_ori = jacr[:, arm.qvel_index]
+        ctrl.J_full = np.vstack([ctrl.J_pos, ctrl.J_ori])
         mass_matrix: np.ndarray = np.ndarray(shape=(nv, nv), dtype=np.float64, order="C")
         mujoco.mj_fullM(self.model, mass_matrix, data.qM)
         ctrl.mass_matrix = mass_matrix[arm.qvel_index, :][:, arm.qvel_index]
@@ -119,7 +125,7 @@ class Arms:
             self.update(arm)
             torques = np.clip(arm.controller.run_controller(), arm.torque_low, arm.torque_high)
             arm.robot.torques = torques
-            if arm.gripper_actuators:
+            if len(arm.gripper_actuators):
                 gripper = arm.robot.gripper.format_action(action[arm.gripper_slice])
                 data.ctrl[arm.gripper_actuators] = arm.gripper_bias + arm.gripper_weight * gripper
             data.ctrl[arm.arm_actuators] = torques

@@ -213,6 +213,7 @@ def split_steps(env):
     def step(action):
         return control_step(env_ref(), action)
 
+    step._vpro_split = True  # what `unobserved_step` checks
     inner.step = step
     return env
 
@@ -246,10 +247,13 @@ def _substeps(inner, action, observe: bool) -> None:
             inner._update_observables()
 
 
-def control_step(inner, action):
+def control_step(inner, action, observe: bool = True):
     """LIBERO's env step (`BDDLBaseDomain.step` around robosuite 1.4's `MujocoEnv.step`, line for
     line) with split substeps; robosuite's own inside `reference()`. Written out because the
-    substep loop sits inside robosuite's `step` with nothing to hook into."""
+    substep loop sits inside robosuite's `step` with nothing to hook into.
+
+    `observe=False` (`unobserved_step`): without robosuite's observables, for a caller that reads
+    no observation; the observations returned are None."""
     if not _FAST[0]:
         return _libero_step()(inner, action)
     if inner.action_dim == 4 and len(action) > 4:  # LIBERO: an OSC_POSE action for an OSC_POSITION arm
@@ -258,13 +262,33 @@ def control_step(inner, action):
     if inner.done:
         raise ValueError("executing action in terminated episode")
     inner.timestep += 1
-    _substeps(inner, action, observe=True)
+    _substeps(inner, action, observe=observe)
     inner.cur_time += inner.control_timestep
     reward, _done, info = inner._post_action(action)
     if inner.viewer is not None and inner.renderer != "mujoco":
         inner.viewer.update()
+    if not observe:
+        return None, reward, inner._check_success(), info
     observations = inner.viewer._get_observations() if inner.viewer_get_obs else inner._get_observations()
     return observations, reward, inner._check_success(), info
+
+
+def unobserved_step(env, action) -> bool:
+    """One control step of LIBERO's env (the wrapper or the robosuite env inside) for a caller that
+    reads no observation (`vpro certify`'s oracle acts from the simulator): `control_step` without
+    robosuite's observables, which it updates after each of the 25 substeps and gathers into the
+    observation dict at the step's end: 43 observables of libero_10-00 sampled and 1,075 timer
+    updates per step, 1.2 ms of a 20-25 ms render-free step here, thrown away unread). The
+    observables only read the simulator (robosuite's and LIBERO's sensors write nothing back): the
+    state, the reward, `done` and LIBERO's object states (`_post_action`) are the same, bit for bit
+    (tests/libero/test_physics.py); what is left stale is the observables' own sampled values and
+    their timers, which robosuite's next `reset()` resets. Returns LIBERO's
+    success (what `step` returns as `done`). robosuite's own `step` inside `reference()`, or on an env
+    not made here (whose `step` is not the split one)."""
+    inner = getattr(env, "env", env)
+    if not _FAST[0] or not getattr(inner.step, "_vpro_split", False):
+        return bool(env.step(action)[2])
+    return bool(control_step(inner, action, observe=False)[2])
 
 
 def physics_step(env, action) -> None:

@@ -42,6 +42,38 @@ class PhaseState:
     placement_onset: int | None
 
 
+@dataclass(frozen=True)
+class _GeomMasks:
+    """The tracked entities' geoms as boolean masks over the model's geoms (`PhaseTracker._touch`)."""
+
+    entities: EntityIndex
+    obj_geoms: np.ndarray  # the interaction object's geom ids
+    obj: np.ndarray
+    gripper: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    receptacle: np.ndarray
+
+    @classmethod
+    def of(cls, ent: EntityIndex) -> _GeomMasks:
+        def mask(geoms) -> np.ndarray:
+            out = np.zeros(ent.model.ngeom, dtype=bool)
+            out[np.asarray(geoms, dtype=np.int64)] = True
+            return out
+
+        obj = ent.interaction
+        obj_geoms = np.asarray(obj.geoms if obj is not None else [], np.int32)
+        return cls(
+            ent,
+            obj_geoms,
+            mask(obj_geoms),
+            mask(ent.gripper.geoms),
+            mask(ent.left_finger_geoms),
+            mask(ent.right_finger_geoms),
+            mask(ent.receptacle.geoms if ent.receptacle is not None else []),
+        )
+
+
 @dataclass
 class PhaseTracker:
     entities: EntityIndex
@@ -50,6 +82,7 @@ class PhaseTracker:
     placement_onset: int | None = None
     _phase: int = 0
     _grasp_height: float | None = None
+    _masks: _GeomMasks | None = field(default=None, repr=False)
 
     def reset(self, entities: EntityIndex | None = None) -> None:
         if entities is not None:
@@ -73,11 +106,16 @@ class PhaseTracker:
             return np.empty(0, np.int32), np.empty(0, np.int32)
         return np.asarray(data.contact.geom1[:n]), np.asarray(data.contact.geom2[:n])
 
+    def _geom_masks(self) -> _GeomMasks:
+        if self._masks is None or self._masks.entities is not self.entities:
+            self._masks = _GeomMasks.of(self.entities)
+        return self._masks
+
     @staticmethod
-    def _touch(g1, g2, a, b) -> bool:
-        if len(a) == 0 or len(b) == 0 or len(g1) == 0:
-            return False
-        return bool(np.any((np.isin(g1, a) & np.isin(g2, b)) | (np.isin(g1, b) & np.isin(g2, a))))
+    def _touch(g1: np.ndarray, g2: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
+        """Whether a contact (g1[i], g2[i]) joins a geom of `a` and one of `b` (boolean masks over
+        the model's geoms: a lookup per contact where np.isin sorted both lists at every call)."""
+        return bool(np.any((a[g1] & b[g2]) | (b[g1] & a[g2])))
 
     def update(self, sim) -> PhaseState:
         """Advance by one observation of `sim`'s current state; returns the state for this step."""
@@ -85,13 +123,11 @@ class PhaseTracker:
         step = len(self.history)
         obj = ent.interaction
         if obj is not None:
+            masks = self._geom_masks()
             g1, g2 = self._contacts(data)
-            obj_geoms = np.asarray(obj.geoms, np.int32)
-            grip_geoms = np.asarray(ent.gripper.geoms, np.int32)
-            touching = self._touch(g1, g2, grip_geoms, obj_geoms)
-            both = self._touch(g1, g2, ent.left_finger_geoms, obj_geoms) and self._touch(
-                g1, g2, ent.right_finger_geoms, obj_geoms
-            )
+            obj_geoms = masks.obj_geoms
+            touching = self._touch(g1, g2, masks.gripper, masks.obj)
+            both = self._touch(g1, g2, masks.left, masks.obj) and self._touch(g1, g2, masks.right, masks.obj)
             if self._phase == 0:
                 near = (
                     ent.grip_site >= 0
@@ -113,10 +149,9 @@ class PhaseTracker:
                     xy = np.linalg.norm(data.xpos[obj.root][:2] - data.xpos[ent.receptacle.root][:2])
                     if self._phase == 2 and xy < PRE_PLACE_XY_M:
                         self._phase = 3
-                    on = self._touch(g1, g2, obj_geoms, np.asarray(ent.receptacle.geoms, np.int32))
+                    on = self._touch(g1, g2, masks.obj, masks.receptacle)
                     released = not (
-                        self._touch(g1, g2, ent.left_finger_geoms, obj_geoms)
-                        or self._touch(g1, g2, ent.right_finger_geoms, obj_geoms)
+                        self._touch(g1, g2, masks.left, masks.obj) or self._touch(g1, g2, masks.right, masks.obj)
                     )
                     if self._phase == 3 and (on or released):
                         self._phase = 4

@@ -29,6 +29,7 @@ import numpy as np
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import sha256_file
 from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero import physics
 from vpro_assets.libero.env import CAMERAS, make_env
 from vpro_assets.libero.init_states import read_init_states
 from vpro_assets.libero.settled import seeded_reset
@@ -163,9 +164,14 @@ class CaseEnv:
                 self.tracker.update(self.sim)
         return obs
 
-    def step(self, action: np.ndarray) -> tuple[dict, bool]:
+    def step(self, action: np.ndarray, observe: bool = True) -> tuple[dict, bool]:
+        """One control step: (observation, LIBERO's success). `observe=False` (an env without a
+        perturbation wrapper only): no observation is made (`physics.unobserved_step`), {}."""
         try:
-            obs, _reward, done, _info = self.env.step(np.asarray(action, dtype=np.float64))
+            if observe or self.wrapper is not None:
+                obs, _reward, done, _info = self.env.step(np.asarray(action, dtype=np.float64))
+            else:
+                obs, done = {}, physics.unobserved_step(self.env, np.asarray(action, dtype=np.float64))
         except Exception as exc:
             self.broken = True
             raise SimulatorError(

@@ -35,6 +35,12 @@ def _geoms_of(model, instances: Iterable[str]) -> set[int]:
     return out
 
 
+def _mask(ngeom: int, geoms: set[int]) -> np.ndarray:
+    out = np.zeros(ngeom, dtype=bool)
+    out[sorted(geoms)] = True
+    return out
+
+
 class ContactTracker:
     def __init__(self, sim, target: str | None, distractors: Iterable[str] = ()):
         model = sim.model
@@ -44,25 +50,29 @@ class ContactTracker:
         self.distractor = _geoms_of(model, distractors) - self.target
         self.first_target: int | None = None
         self.first_distractor: int | None = None
+        # The three sets as boolean masks over the model's geoms: a lookup per contact.
+        self._gripper, self._target, self._distractor = (
+            _mask(model.ngeom, self.gripper),
+            _mask(model.ngeom, self.target),
+            _mask(model.ngeom, self.distractor),
+        )
 
     def update(self, step: int) -> None:
+        if self.first_target is not None and (self.first_distractor is not None or not self.distractor):
+            return  # both first steps known (or no distractor to find): nothing more to learn
         data = self.sim.data
         n = int(data.ncon)
         if n == 0:
             return
-        g1 = np.fromiter((data.contact[i].geom1 for i in range(n)), dtype=np.int64, count=n)
-        g2 = np.fromiter((data.contact[i].geom2 for i in range(n)), dtype=np.int64, count=n)
-        for a, b in zip(g1.tolist(), g2.tolist()):
-            if a in self.gripper:
-                other = b
-            elif b in self.gripper:
-                other = a
-            else:
-                continue
-            if self.first_target is None and other in self.target:
-                self.first_target = step
-            if self.first_distractor is None and other in self.distractor:
-                self.first_distractor = step
+        gripper, target, distractor = self._gripper, self._target, self._distractor
+        contact = data.contact  # MuJoCo's contact list: its fields as arrays over the ncon contacts
+        g1, g2 = np.asarray(contact.geom1[:n], np.int64), np.asarray(contact.geom2[:n], np.int64)
+        # the other geom of each gripper contact (a contact whose first geom is the gripper's: its second)
+        other = np.where(gripper[g1], g2, g1)[gripper[g1] | gripper[g2]]
+        if self.first_target is None and target[other].any():
+            self.first_target = step
+        if self.first_distractor is None and distractor[other].any():
+            self.first_distractor = step
 
     @property
     def composition(self) -> str:

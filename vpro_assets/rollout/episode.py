@@ -81,8 +81,11 @@ class EpisodeSession:
         row_fields = session.result()                     # then session.close()
     """
 
-    def __init__(self, case: dict, trial: int, settings: EpisodeSettings):
+    def __init__(self, case: dict, trial: int, settings: EpisodeSettings, observe: bool = True):
+        """`observe=False` (render-free episodes of a policy that reads no observation, the oracle):
+        the env makes no observation (`CaseEnv.step`); `start` and `step` return {}."""
         self.case, self.trial, self.settings = case, trial, settings
+        self.observe = observe or settings.render
         self.seed = int(case["trial_seeds"][trial])
         self.limit = settings.limit(case["suite"])
         self.instruction = prompt_of(case)
@@ -127,9 +130,9 @@ class EpisodeSession:
             on_reset(self.cenv)
         self.contacts = ContactTracker(self.cenv.sim, self.cenv.task.target, _distractors(self.cenv))
         for _ in range(self.settings.wait_steps):
-            obs, _ = self.cenv.step(NOOP_ACTION)
+            obs, _ = self.cenv.step(NOOP_ACTION, observe=self.observe)
             self.t += 1
-        return obs
+        return obs if self.observe else {}
 
     def policy_images(self, obs: dict) -> dict:
         """The views the policy receives now (raw bottom-up frame; None = unavailable view, and
@@ -143,8 +146,8 @@ class EpisodeSession:
         return Observation.from_libero(obs, self.t, self.instruction, images=images)
 
     def step(self, action) -> dict:
-        """One policy step; the raw observation after it."""
-        obs, done = self.env.step(action)
+        """One policy step; the raw observation after it ({}: not observing)."""
+        obs, done = self.env.step(action, observe=self.observe)
         self.t += 1
         self.steps += 1
         self.contact_tracker.update(self.t)
@@ -177,7 +180,9 @@ class EpisodeSession:
 
 def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> dict:
     """Run one episode and return its row fields. Raises InfrastructureError or CaseUnavailableError."""
-    session = EpisodeSession(case, trial, settings)
+    # A render-free episode of a policy that reads no observation (the oracle: it reads the
+    # simulator) makes none: robosuite's observables are skipped (`physics.unobserved_step`).
+    session = EpisodeSession(case, trial, settings, observe=getattr(policy, "reads_observations", True))
     if not settings.render and getattr(policy, "uses_images", True):
         raise VProError(
             f"policy {_pid(policy)} acts on camera images; render-free episodes run only policies "
@@ -204,7 +209,7 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
             if not plan or settings.video_dir:
                 images = session.policy_images(obs)
             if not plan:
-                view = session.observation(obs, images)
+                view = session.observation(obs, images) if session.observe else None
                 try:
                     out = as_output(policy.act(view), where=f"policy {_pid(policy)}")
                 except InfrastructureError:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from vpro_assets.core.mjgeom import geom_pieces
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.world import World
@@ -30,7 +29,7 @@ def obstacle_pieces(world: World, exclude: tuple[str, ...]) -> tuple[np.ndarray,
     PIECE_M so that rotated plates (a turned cabinet's walls and top) are not taken for blocks, and
     the geom of each box (N,)."""
     geoms = world.obstacle_geoms(exclude)
-    boxes = [geom_pieces(world.m, world.d, g, PIECE_M) for g in geoms]
+    boxes = [world.pieces(g, PIECE_M) for g in geoms]
     if not boxes:
         return np.zeros((0, 2, 3)), np.zeros(0, dtype=int)
     return np.concatenate(boxes), np.repeat(geoms, [len(b) for b in boxes])
@@ -44,13 +43,21 @@ def obstacle_boxes(world: World, exclude: tuple[str, ...]) -> np.ndarray:
 def object_boxes(world: World, instance: str) -> np.ndarray:
     """(M, 2, 3) world boxes of the pieces of an object's collision geoms: its footprint (a round
     bowl's, not the square around it)."""
-    return np.concatenate([geom_pieces(world.m, world.d, g, PIECE_M) for g in world.geoms(instance)])
+    return np.concatenate([world.pieces(g, PIECE_M) for g in world.geoms(instance)])
 
 
 def _overlap_xy(boxes: np.ndarray, own: np.ndarray, margin: float = MARGIN_M) -> np.ndarray:
     """Which obstacle boxes come within `margin` of any of the object's boxes `own`, in plan."""
-    lo, hi = own[None, :, 0, :2] - margin, own[None, :, 1, :2] + margin
-    return np.any(np.all(boxes[:, None, 0, :2] < hi, axis=2) & np.all(boxes[:, None, 1, :2] > lo, axis=2), axis=1)
+    if not len(own):
+        return np.zeros(len(boxes), dtype=bool)
+    lo, hi = own[:, 0, :2] - margin, own[:, 1, :2] + margin
+    # Only a box within the margin of the object's whole footprint can be within it of one of its
+    # boxes: the pairs are compared for those few (the same comparisons of the same numbers).
+    out = (boxes[:, 0, 0] < hi[:, 0].max()) & (boxes[:, 0, 1] < hi[:, 1].max())
+    out &= (boxes[:, 1, 0] > lo[:, 0].min()) & (boxes[:, 1, 1] > lo[:, 1].min())
+    near = boxes[out]
+    out[out] = np.any(np.all(near[:, None, 0, :2] < hi, axis=2) & np.all(near[:, None, 1, :2] > lo, axis=2), axis=1)
+    return out
 
 
 def overhead(boxes: np.ndarray, own: np.ndarray, up_to: float) -> float | None:

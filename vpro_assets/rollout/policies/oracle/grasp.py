@@ -12,7 +12,7 @@ fingers closing radially on the side nearest the robot.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -69,6 +69,12 @@ class Grasp:
     squeeze_to: float | None = None
     # Held by its narrow top only (`narrow_top_grasp`): the object hangs from its top few millimetres.
     hung: bool = False
+    # Of a hung grasp, the part pinched: (the points of the object's top the pads reach, the grip
+    # site's height), `narrow_top`'s; what `nudge` tests the hand's way down against. None otherwise.
+    part: tuple[np.ndarray, float] | None = None
+    # The shift along the wall the open hand comes down at beside an overhang (`side_entry`, of a wall
+    # pinch; zero: straight down), measured by `plan_grasp` against the obstacles it planned among.
+    entry: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
 def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -120,7 +126,9 @@ def beyond(hulls: list[np.ndarray], direction: np.ndarray, offset: float) -> np.
 def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) -> Grasp:
     """The grasp of `instance`; with `toward` (a horizontal unit vector), one on that side of the
     object (a thin part sticking out there, else its wall there), so the hand can lead it into a
-    covered cavity and stay outside."""
+    covered cavity and stay outside. The one decision of how an object is taken: `pick` follows it
+    (its `entry` too) and `nudge` reads from it whether, and where (`part`), the object is pinched by
+    its narrow top."""
     pts = world.points(instance)
     lo, hi = pts.min(0), pts.max(0)
     height = hi[2] - lo[2]
@@ -156,11 +164,13 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     reach = [max(z, reach_height(boxes, g.point, g.axis, WITH_WRIST)) for g in sides]
     k = int(np.argmin(np.round(reach, 3)))  # the deepest pinch; of equals, nearest the robot
     if reach[k] <= hi[2] - MIN_RIM_PINCH_M:
-        return replace(sides[k], point=np.append(sides[k].point[:2], reach[k]))
+        grasp = replace(sides[k], point=np.append(sides[k].point[:2], reach[k]))
+        return replace(grasp, entry=side_entry(boxes, grasp))  # zero: the hand comes down to `reach`
     # No side is free from above (an opened drawer over a bowl): aim at the full depth on a side the
     # hand slides in at (`side_entry`), else on the side with the fewest obstacles where the
     # fingertips come down, and let the hand squeeze past.
-    entering = [g for g in sides if side_entry(boxes, g).any()]
+    sides = [replace(g, entry=side_entry(boxes, g)) for g in sides]
+    entering = [g for g in sides if g.entry.any()]
     return min(entering or sides, key=lambda g: blocked_spots(boxes, g))
 
 
@@ -235,7 +245,7 @@ def narrow_top_grasp(world: World, instance: str) -> Grasp | None:
     over 9 cm shoulders, so the pads meet the shoulders)."""
     top = narrow_top(world, instance)
     grasp = None if top is None else _clear_pinch(world, instance, *top)
-    return None if grasp is None else replace(grasp, hung=True)
+    return None if grasp is None else replace(grasp, hung=True, part=top)
 
 
 def narrow_top(world: World, instance: str) -> tuple[np.ndarray, float] | None:
@@ -250,15 +260,6 @@ def narrow_top(world: World, instance: str) -> tuple[np.ndarray, float] | None:
             break
         best = part, top - depth
     return best
-
-
-def pinch_part(world: World, instance: str) -> tuple[np.ndarray, float] | None:
-    """(points, grip-site height) of the pinch `plan_grasp` takes across a solid by its narrow top
-    only (`narrow_top_grasp`: too wide whole, no handle); None when it takes the object otherwise."""
-    pts = world.points(instance)
-    if widths(pts)[1].min() <= MAX_PINCH_M or handle_grasp(world, instance, pts) is not None:
-        return None
-    return narrow_top(world, instance)
 
 
 def hand_stop(boxes: np.ndarray, pts: np.ndarray, z: float) -> float:
@@ -392,15 +393,18 @@ def grasp_orientation(world: World, axis: np.ndarray) -> np.ndarray:
     return motion.down_with_yaw(yaw)
 
 
-def pick(world: World, instance: str, attempts: int = 3, toward: np.ndarray | None = None) -> Actions:
+def pick(
+    world: World, instance: str, attempts: int = 3, toward: np.ndarray | None = None, planned: Grasp | None = None
+) -> Actions:
     """Grasp `instance` (on its `toward` side, see `plan_grasp`) and lift it LIFT_M; SkillFailed
-    when it does not come up after `attempts`."""
+    when it does not come up after `attempts`. `planned`: `plan_grasp`'s grasp made in the state the
+    pick starts in (the caller's, not planned again); later attempts plan anew."""
     for attempt in range(attempts):
-        grasp = plan_grasp(world, instance, toward)
+        grasp = planned if attempt == 0 and planned is not None else plan_grasp(world, instance, toward)
         world.hung = grasp.hung
         orient = grasp_orientation(world, grasp.axis)
         start_z = world.body_pos(instance)[2]
-        entry = side_entry(obstacle_boxes(world, (instance,)), grasp)
+        entry = grasp.entry
         above = grasp.point + entry + [0, 0, HOVER_M]
         above[2] = max(above[2], world.eef()[2] if attempt == 0 else above[2])
         yield from motion.move_to(world, above, OPEN, orient, tol=0.015, max_steps=150)

@@ -19,14 +19,15 @@ met the cans standing 5-10 cm behind libero_10-01's cream cheese in every direct
 
 from __future__ import annotations
 
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
 from vpro_assets.rollout.policies.oracle import motion, push
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
-from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation, hand_stop, pinch_part
-from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
+from vpro_assets.rollout.policies.oracle.grasp import Grasp, grasp_orientation, hand_stop, plan_grasp
+from vpro_assets.rollout.policies.oracle.motion import CLOSE
 from vpro_assets.rollout.policies.oracle.world import World
 
 DIRECTIONS = 16
@@ -48,11 +49,12 @@ PATH_MARGIN_M = 0.003  # on its way the object passes this close to its neighbou
 YAWS_DEG = (0.0, 15.0, -15.0, 30.0, -30.0, 45.0, -45.0, 60.0, -60.0, 90.0)
 
 
-def blocked(world: World, instance: str) -> bool:
+def blocked(world: World, instance: str, grasp: Grasp | None = None) -> bool:
     """Whether the open hand stops too high (`_too_high`) over the pinch `grasp` takes across
     `instance` because something stands where it comes down; False when the object is not taken by
-    a pinch of its narrow top (`grasp.pinch_part`)."""
-    part = pinch_part(world, instance)
+    a pinch of its narrow top (the grasp's `part`). `grasp`: `grasp.plan_grasp`'s, in this state
+    (planned here when not given)."""
+    part = (plan_grasp(world, instance) if grasp is None else grasp).part
     if part is None:
         return False
     pts, z = part
@@ -93,12 +95,13 @@ class Push:
     behind: float  # the grip site starts this far behind the object
 
 
-def clearing_shift(world: World, instance: str) -> Push | None:
+def clearing_shift(world: World, instance: str, grasp: Grasp | None = None) -> Push | None:
     """The shortest push after which the open hand comes
     down to the pinch (`blocked` no longer holds), the object on the way clear of its neighbours
     and over what it stands on, and the pushing hand (at the first of YAWS_DEG that fits), coming
-    down behind it and following it, clear of everything; None when none within MAX_M does."""
-    part = pinch_part(world, instance)
+    down behind it and following it, clear of everything; None when none within MAX_M does.
+    `grasp`: as `blocked`'s."""
+    part = (plan_grasp(world, instance) if grasp is None else grasp).part
     if part is None:
         return None
     pts, z = part
@@ -108,20 +111,36 @@ def clearing_shift(world: World, instance: str) -> Push | None:
     own = object_boxes(world, instance)
     hand = closed_hand(world)
     dirs = [np.array([np.cos(a), np.sin(a), 0.0]) for a in np.linspace(0, 2 * np.pi, DIRECTIONS, endpoint=False)]
-    candidates = []  # (direction, distance) that clear the hand over the pinch, shortest first
-    for dist in np.arange(STEP_M, MAX_M + 1e-9, STEP_M):
-        for d in dirs:
-            if _too_high(hand_stop(boxes, pts + d * dist, z), z, top):
-                continue
-            path = [d * s for s in np.arange(STEP_M, dist + MARGIN_M + 1e-9, STEP_M)]
-            if not any(_meets(boxes, own + p) for p in path) and _on_support(boxes, own, own + path[-1]):
-                candidates.append((d, float(dist + MARGIN_M)))
-    for behind in BEHIND_M:
-        for d, dist in candidates:
-            for yaw in YAWS_DEG:
-                orient = grasp_orientation(world, _turn(d, yaw))
-                if not _hand_meets(world, instance, boxes, hand, orient, d, dist, behind):
-                    return Push(d, dist, orient, behind)
+
+    def candidates() -> Iterator[tuple[np.ndarray, float]]:
+        """(direction, distance) that clear the hand over the pinch, shortest first."""
+        for dist in np.arange(STEP_M, MAX_M + 1e-9, STEP_M):
+            for d in dirs:
+                if _too_high(hand_stop(boxes, pts + d * dist, z), z, top):
+                    continue
+                path = [d * s for s in np.arange(STEP_M, dist + MARGIN_M + 1e-9, STEP_M)]
+                if not any(_meets(boxes, own + p) for p in path) and _on_support(boxes, own, own + path[-1]):
+                    yield d, float(dist + MARGIN_M)
+
+    def fitting(d: np.ndarray, dist: float, behind: float) -> Push | None:
+        for yaw in YAWS_DEG:
+            orient = grasp_orientation(world, _turn(d, yaw))
+            if not _hand_meets(world, instance, boxes, hand, orient, d, dist, behind):
+                return Push(d, dist, orient, behind)
+        return None
+
+    # Every candidate with the first of BEHIND_M, then with the next: the candidates are made as the
+    # first pass needs them (the measure of each is the hand's stop over the shifted pinch, a sweep
+    # of 180 widths), so a short push that fits ends the search before the longer ones are made.
+    made: list[tuple[np.ndarray, float]] = []
+    for d, dist in candidates():
+        made.append((d, dist))
+        if (push_ := fitting(d, dist, BEHIND_M[0])) is not None:
+            return push_
+    for behind in BEHIND_M[1:]:
+        for d, dist in made:
+            if (push_ := fitting(d, dist, behind)) is not None:
+                return push_
     return None
 
 
@@ -145,9 +164,14 @@ def _turn(v: np.ndarray, deg: float) -> np.ndarray:
 def _meets(boxes: np.ndarray, own: np.ndarray) -> bool:
     """Whether any of the object's boxes `own` comes within PATH_MARGIN_M of an obstacle box (in
     plan, at heights they share; not what it stands on)."""
+    if not len(own):
+        return False
     lo, hi = own[None, :, 0] - PATH_MARGIN_M, own[None, :, 1] + PATH_MARGIN_M
     lo[..., 2], hi[..., 2] = own[None, :, 0, 2] + 0.005, own[None, :, 1, 2]
-    return bool(np.any(np.all(boxes[:, None, 0] < hi, axis=2) & np.all(boxes[:, None, 1] > lo, axis=2)))
+    # Only a box reaching into the box around all of `own`'s can meet one of them: the pairs are
+    # compared for those few (the same comparisons of the same numbers).
+    near = boxes[np.all(boxes[:, 0] < hi[0].max(0), axis=1) & np.all(boxes[:, 1] > lo[0].min(0), axis=1)]
+    return bool(np.any(np.all(near[:, None, 0] < hi, axis=2) & np.all(near[:, None, 1] > lo, axis=2)))
 
 
 def _hand_meets(
@@ -174,28 +198,30 @@ def _hand_meets(
     obstacle = near[:, 0][:, None] + corners[None] * (near[:, 1] - near[:, 0])[:, None]  # (N, 8, 3)
     down = [start + [0.0, 0.0, h] for h in np.linspace(0.0, HOVER_M, 6)]
     along = [start + direction * s for s in np.linspace(0.0, dist, max(2, int(dist / STEP_M) + 1))]
-    for pose in down + along:
+    if not hand:
+        return False
+    lo, hi = np.array([part.min(0) for part in hand]), np.array([part.max(0) for part in hand])  # (P, 3)
+    # The parts' box corners turned with the hand, the same at every pose: (P * 8, 3).
+    turned = np.concatenate([(lo_ + corners * (hi_ - lo_)) @ orient.T for lo_, hi_ in zip(lo, hi, strict=True)])
+    for pose in down + along:  # every part at once: whether any meets a box, as part by part
         local = (obstacle.reshape(-1, 3) - pose) @ orient  # obstacle corners in the grip frame
-        for part in hand:
-            lo, hi = part.min(0), part.max(0)
-            if np.any(np.all((local > lo) & (local < hi), axis=1)):
-                return True
-            world_pts = pose + (lo + corners * (hi - lo)) @ orient.T
-            if np.any(
-                np.all((world_pts[:, None] > near[None, :, 0]) & (world_pts[:, None] < near[None, :, 1]), axis=2)
-            ):
-                return True
+        if np.any(np.all((local[None] > lo[:, None]) & (local[None] < hi[:, None]), axis=2)):
+            return True
+        world_pts = pose + turned
+        if np.any(np.all((world_pts[:, None] > near[None, :, 0]) & (world_pts[:, None] < near[None, :, 1]), axis=2)):
+            return True
     return False
 
 
-def clear_for_pick(world: World, instance: str) -> Actions:
+def clear_for_pick(world: World, instance: str, grasp: Grasp) -> Generator[np.ndarray, None, bool]:
     """Push `instance` clear (`clearing_shift`) when a neighbour stops the hand over its pinch;
-    nothing otherwise, or when no push clears it."""
-    if not blocked(world, instance):
-        return
-    shift = clearing_shift(world, instance)
+    nothing otherwise, or when no push clears it. `grasp`: `grasp.plan_grasp`'s in this state.
+    Returns whether it pushed (else the state is unchanged and `grasp` still holds)."""
+    if not blocked(world, instance, grasp):
+        return False
+    shift = clearing_shift(world, instance, grasp)
     if shift is None:
-        return
+        return False
     direction = shift.direction[:2]
     goal = world.body_pos(instance)[:2] + direction * shift.dist
     # `push`'s leg: `inside` negative puts the fingertips behind the object's back, not inside its rim.
@@ -213,3 +239,4 @@ def clear_for_pick(world: World, instance: str) -> Actions:
     yield from motion.move_to(world, [*world.eef()[:2], z], CLOSE, shift.orient, tol=0.02, max_steps=60)
     yield from motion.move_to(world, [*start, z], CLOSE, shift.orient, tol=0.015, max_steps=120)
     yield from push.push_leg(world, instance, leg, lambda: float(world.body_pos(instance)[:2] @ direction) >= depth)
+    return True

@@ -20,7 +20,7 @@ from vpro_assets.rollout.policies.oracle import motion, nudge
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
-from vpro_assets.rollout.policies.oracle.grasp import pick
+from vpro_assets.rollout.policies.oracle.grasp import pick, plan_grasp
 from vpro_assets.rollout.policies.oracle.motion import OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
@@ -165,9 +165,11 @@ def lower_and_release(world: World, held: str, dest: Destination) -> Actions:
 
 def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions:
     """Pick `held` and put it (relation) `dest_arg`; first push it clear of a neighbour that stops
-    the hand over its pinch (`nudge`)."""
-    yield from nudge.clear_for_pick(world, held)
-    yield from pick(world, held)
+    the hand over its pinch (`nudge`). The grasp is planned once: what the nudge tests is the pinch
+    the pick then makes (planned anew only after a push moved the object)."""
+    grasp = plan_grasp(world, held)
+    pushed = yield from nudge.clear_for_pick(world, held, grasp)
+    yield from pick(world, held, planned=None if pushed else grasp)
     dest = resolve(world, relation, dest_arg, held)
     yield from carry(world, held, dest.xy)
     yield from lower_and_release(world, held, dest)

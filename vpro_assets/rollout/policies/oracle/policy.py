@@ -97,6 +97,7 @@ class OraclePolicy:
     policy_id = "oracle"
     replan_steps = 1
     uses_images = False  # acts from simulator state only; runs in render-free episodes
+    reads_observations = False  # nor reads the observation: a render-free episode makes none (`act(None)`)
 
     def __init__(self, **_ignored):
         self._env = None

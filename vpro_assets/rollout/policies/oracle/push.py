@@ -53,13 +53,15 @@ def hand_points(world: World) -> list[np.ndarray]:
 
 
 def _sweep(boxes: np.ndarray, local: np.ndarray, path: np.ndarray) -> set[int]:
-    """Obstacle boxes met by the point set `local` translated along `path`."""
-    hits: set[int] = set()
-    for p in path:
-        pts = p + local
-        lo, hi = pts.min(0), pts.max(0)
-        hits |= set(np.flatnonzero(np.all(boxes[:, 0] < hi, axis=1) & np.all(boxes[:, 1] > lo, axis=1)).tolist())
-    return hits
+    """Obstacle boxes met by the point set `local` translated along `path`: by the box around the
+    points at some point of the path. All points of the path at once, and only for the obstacles
+    that reach the box around the whole sweep (the same sums and comparisons as one point at a time)."""
+    pts = path[:, None, :] + local[None]  # (path, points, 3)
+    lo, hi = pts.min(1), pts.max(1)
+    near = np.flatnonzero(np.all(boxes[:, 0] < hi.max(0), axis=1) & np.all(boxes[:, 1] > lo.min(0), axis=1))
+    cand = boxes[near]
+    met = np.any(np.all(cand[:, None, 0] < hi[None], axis=2) & np.all(cand[:, None, 1] > lo[None], axis=2), axis=1)
+    return set(near[met].tolist())
 
 
 def back_reach(world: World, obj: str, direction: np.ndarray, inside: float = INSIDE_M) -> float:

@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.core.mjgeom import colliding, subtree, world_aabb
+from vpro_assets.core.mjgeom import colliding, geom_corners, geom_pieces, subtree
 from vpro_assets.libero.env import GRIPPER_PREFIX
 from vpro_assets.libero.tasks import TaskRecord
 from vpro_assets.perturb.entities import GRIP_SITE, Entity, object_entity
@@ -59,6 +59,12 @@ class World:
         self.grip_site = self._id(mujoco.mjtObj.mjOBJ_SITE, GRIP_SITE)
         self._entities: dict[str, Entity] = {}
         self._hulls = GeomHulls()
+        # What the skills measure again and again at every plan and step: the geoms of an instance
+        # and of the obstacles (of the model: found once), and each geom's world hull, box corners
+        # and pieces, kept with the pose they were measured at (`_at_pose`).
+        self._geoms: dict[str, list[int]] = {}
+        self._obstacle_geoms: dict[tuple[str, ...], list[int]] = {}
+        self._posed: dict[tuple[str, int], tuple[bytes, np.ndarray]] = {}
         self.step = 0  # control steps the oracle has acted
         # The gripper action that keeps a held object: 1 closes on it, 0 keeps the fingers' target
         # where the grasp left it (a gentle pinch, `grasp.foot_grasp`). Set by each pick.
@@ -145,13 +151,31 @@ class World:
 
     # ---- objects ---------------------------------------------------------------------------------
     def geoms(self, instance: str) -> list[int]:
-        ent = self.entity(instance)
-        return colliding(self.m, ent.geoms) or list(ent.geoms)
+        if instance not in self._geoms:
+            ent = self.entity(instance)
+            self._geoms[instance] = colliding(self.m, ent.geoms) or list(ent.geoms)
+        return list(self._geoms[instance])
+
+    def _at_pose(self, what: str, geom: int, measure: Callable[[int], np.ndarray]) -> np.ndarray:
+        """`measure(geom)`, a function of the model and of the geom's pose (`geom_xpos`, `geom_xmat`)
+        only, measured again only once the geom has moved (read-only): a pose seen before gives
+        the same numbers, bit for bit; most geoms the oracle measures (fixtures, objects standing
+        still) do not move between two steps."""
+        pose = self.d.geom_xpos[geom].tobytes() + self.d.geom_xmat[geom].tobytes()
+        kept = self._posed.get((what, geom))
+        if kept is not None and kept[0] == pose:
+            return kept[1]
+        value = measure(geom)
+        value.flags.writeable = False
+        self._posed[(what, geom)] = (pose, value)
+        return value
 
     def hulls(self, instance: str) -> list[np.ndarray]:
         """World points of the convex hull of each of the instance's collision geoms (box corners
-        for primitives)."""
-        return self._hulls.world(self.m, self.d, self.geoms(instance))
+        for primitives; read-only)."""
+        return [
+            self._at_pose("hull", g, lambda g: self._hulls.world(self.m, self.d, [g])[0]) for g in self.geoms(instance)
+        ]
 
     def points(self, instance: str) -> np.ndarray:
         """All of `hulls` stacked (N x 3): the object's actual extent (a deformed can's hull
@@ -159,7 +183,11 @@ class World:
         return np.concatenate(self.hulls(instance))
 
     def box(self, instance: str) -> Box:
-        return Box(*world_aabb(self.m, self.d, self.geoms(instance)))
+        """`core.mjgeom.world_aabb` of the instance's geoms: around their box corners."""
+        pts = np.concatenate(
+            [self._at_pose("corners", g, lambda g: geom_corners(self.m, self.d, [g])) for g in self.geoms(instance)]
+        )
+        return Box(pts.min(0), pts.max(0))
 
     def body_pos(self, instance: str) -> np.ndarray:
         """LIBERO's position of an object: its `<instance>_main` body (what On and In test)."""
@@ -243,8 +271,21 @@ class World:
         ids = {mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_BODY, b) for b in bodies} - {-1}
         return {g for g in range(self.m.ngeom) if self.m.geom_bodyid[g] in ids}
 
+    def pieces(self, geom: int, piece_m: float) -> np.ndarray:
+        """`core.mjgeom.geom_pieces` of a geom (read-only), measured again only once the geom has
+        moved: a function of its pose (`geom_xpos`, `geom_xmat`) and the model, so a pose seen
+        before gives the same boxes, bit for bit; most obstacles are fixtures that never move."""
+        return self._at_pose(f"pieces {piece_m}", geom, lambda g: geom_pieces(self.m, self.d, g, piece_m))
+
     def obstacle_geoms(self, exclude: tuple[str, ...] = ()) -> list[int]:
-        """Collision geoms of everything but the robot, the table/floor and the excluded instances."""
+        """Collision geoms of everything but the robot, the table/floor and the excluded instances
+        (of the model only: found once per `exclude`)."""
+        key = tuple(exclude)
+        if key not in self._obstacle_geoms:
+            self._obstacle_geoms[key] = self._find_obstacle_geoms(key)
+        return list(self._obstacle_geoms[key])
+
+    def _find_obstacle_geoms(self, exclude: tuple[str, ...]) -> list[int]:
         skip = set()
         for inst in exclude:
             skip |= set(self.entity(inst).geoms)
