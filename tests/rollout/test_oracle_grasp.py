@@ -201,6 +201,10 @@ def test_inverted_bowl_lifted_by_its_foot(scene):
         "libero_10-00/target_geometry_variation/twist-s3-v2",  # a twisted can pinched at its narrower top
         "libero_object-00/target_geometry_variation/taper-s3-v1",  # 8.2 cm across its hulls: pinched at its 5 cm top
         "libero_10-02/target_geometry_variation/asymmetric-s3-v1",  # a shell of pieces: taken by its handle
+        # the bowl displaced 0.88 m from the arm's base: its wall pinched within reach (`grasp.within_reach`)
+        "libero_spatial-04/task_relevant_distractors/familiar_position-v1",
+        # an inverted bowl in the drawer 0.76 m out: approached at half speed, closed at rest (`grasp.settle`)
+        "libero_spatial-04/task_precondition_variation/object_pose-v1",
     ],
 )
 def test_deformed_or_reposed_target_lifted_and_placed(case_id):

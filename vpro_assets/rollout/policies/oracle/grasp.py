@@ -33,6 +33,15 @@ LIFT_M = 0.10  # lift after closing, before any carry
 MIN_LIFT_M = 0.02  # the object counts as lifted when it rose this much
 TABLE_CLEARANCE_M = 0.008  # grip site at least this high above the object's bottom
 ROBOT_BASE_XY = np.array([-0.66, 0.0])  # the arm stands at -x in every LIBERO scene
+# The grip site, the hand pointing down, comes 0.81-0.83 m out from the arm's base at 0.92-1.0 m
+# (measured, stretched and slowly there): a wall pinched farther out is taken this far out, the
+# wall still between the open fingers (the grip site moved at most REACH_SHIFT_M).
+REACH_M, REACH_SHIFT_M = 0.80, 0.035
+# A gentle pinch (`foot_grasp`) farther out than FAR_M is approached at FAR_APPROACH_SPEED and
+# closed with the hand at rest (`settle`); nearer ones (libero_spatial-00 to -03's inverted bowls,
+# at most 0.745 m out) as before.
+FAR_M, FAR_APPROACH_SPEED = 0.75, 0.5
+SETTLE_M, SETTLE_STILL_M, SETTLE_STEPS = 0.001, 0.0003, 20
 WALL_SIDES = 16  # candidate sides of a wide object's wall
 HANDLE_MAX_M = 0.045  # a handle is thinner than this across (a wall cut OUTER_BAND_M deep is wider)
 HANDLE_DIRECTIONS = 72  # directions searched for a handle, 5 degrees apart
@@ -164,7 +173,7 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     reach = [max(z, reach_height(boxes, g.point, g.axis, WITH_WRIST)) for g in sides]
     k = int(np.argmin(np.round(reach, 3)))  # the deepest pinch; of equals, nearest the robot
     if reach[k] <= hi[2] - MIN_RIM_PINCH_M:
-        grasp = replace(sides[k], point=np.append(sides[k].point[:2], reach[k]))
+        grasp = replace(sides[k], point=within_reach(np.append(sides[k].point[:2], reach[k])))
         return replace(grasp, entry=side_entry(boxes, grasp))  # zero: the hand comes down to `reach`
     # No side is free from above (an opened drawer over a bowl): aim at the full depth on a side the
     # hand slides in at (`side_entry`), else on the side with the fewest obstacles where the
@@ -172,6 +181,18 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     sides = [replace(g, entry=side_entry(boxes, g)) for g in sides]
     entering = [g for g in sides if g.entry.any()]
     return min(entering or sides, key=lambda g: blocked_spots(boxes, g))
+
+
+def within_reach(point: np.ndarray) -> np.ndarray:
+    """A wall pinch's grip point moved toward the arm's base to REACH_M from it (by at most
+    REACH_SHIFT_M), or as it is when nearer."""
+    off = point[:2] - ROBOT_BASE_XY
+    dist = float(np.linalg.norm(off))
+    if dist <= REACH_M:
+        return point
+    out = np.array(point, dtype=float)
+    out[:2] -= off / dist * min(dist - REACH_M, REACH_SHIFT_M)
+    return out
 
 
 def handle_grasp(world: World, instance: str, pts: np.ndarray) -> Grasp | None:
@@ -407,7 +428,7 @@ def pick(
         entry = grasp.entry
         above = grasp.point + entry + [0, 0, HOVER_M]
         above[2] = max(above[2], world.eef()[2] if attempt == 0 else above[2])
-        yield from motion.move_to(world, above, OPEN, orient, tol=0.015, max_steps=150)
+        yield from motion.move_to(world, above, OPEN, orient, tol=0.015, max_steps=150, speed=_approach_speed(grasp))
         yield from motion.move_to(world, grasp.point + entry + [0, 0, HOVER_M], OPEN, orient, tol=0.01, max_steps=60)
         if grasp.squeeze_to is None:
             world.hold_grip = CLOSE
@@ -422,6 +443,8 @@ def pick(
         else:
             world.hold_grip = 0.0  # keep the fingers' target where the gentle close leaves it
             yield from motion.move_to(world, grasp.point, OPEN, orient, tol=0.001, max_steps=120, speed=0.4)
+            if _far(grasp):
+                yield from settle(world, grasp.point, orient)
             yield from squeeze(world, grasp.squeeze_to, orient)
         yield from lift_clear(world, instance, world.table_z + CLEAR_ABOVE_TABLE_M)
         yield from motion.move_to(
@@ -431,6 +454,33 @@ def pick(
             return
         yield from motion.gripper(world, OPEN, orient=orient)
     raise SkillFailed(f"could not lift {instance} in {attempts} attempts")
+
+
+def _far(grasp: Grasp) -> bool:
+    """Whether a grasp's grip point lies farther than FAR_M from the arm's base."""
+    return float(np.linalg.norm(grasp.point[:2] - ROBOT_BASE_XY)) > FAR_M
+
+
+def _approach_speed(grasp: Grasp) -> float:
+    """The speed of the hand's way over a grasp: FAR_APPROACH_SPEED over a gentle pinch far out
+    (`_far`: coming out there at full speed, the arm straightens its elbow to its limit and the grip
+    site then stops short of the pinch: libero_spatial-04's inverted bowl in the drawer, 80-120
+    steps), full speed otherwise."""
+    return FAR_APPROACH_SPEED if _far(grasp) and grasp.squeeze_to is not None else 1.0
+
+
+def settle(world: World, point: np.ndarray, orient: np.ndarray) -> Actions:
+    """Hold the open hand at `point` until the grip site is within SETTLE_M of it and has come to
+    rest (moved less than SETTLE_STILL_M in a step), at most SETTLE_STEPS steps: a hand that
+    arrives moving drifts on 2-4 mm (far out, libero_spatial-04's inverted bowl in its drawer), and a
+    foot pinch 2 mm low closes on the shoulders, which let the bowl go as it rises."""
+    last = None
+    for _ in range(SETTLE_STEPS):
+        now = world.eef()
+        if last is not None and np.linalg.norm(now - point) < SETTLE_M and np.linalg.norm(now - last) < SETTLE_STILL_M:
+            return
+        last = now
+        yield motion.action_to(world, point, OPEN, orient, speed=0.4)
 
 
 def squeeze(world: World, opening: float, orient: np.ndarray) -> Actions:

@@ -5,9 +5,11 @@ right of the plate").
 LIBERO's checks decide where the object must end: `On` an object wants the two bodies' positions
 within 3 cm horizontally and in contact; `On` or `In` a region wants the object's body position in
 the region's box. So the carry aims the held object's *body position* (not its box centre) at the
-destination's centre. The carry height clears every obstacle in the corridor between the object and
-the destination (their world boxes); the object is lowered until it touches something or reaches
-the destination's surface, then released.
+destination's centre. The carry rises to clear every obstacle in the corridor between the object
+and the destination (the boxes of their pieces; not what the object only moves away from), and
+comes down on its way once nothing ahead stands higher than what is at the destination; where the
+arm, stretched far out, stops below the height asked, it carries on at the height it reached. The
+object is lowered until it touches something or reaches the destination's surface, then released.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 
 from vpro_assets.rollout.policies.oracle import motion, nudge
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
-from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
+from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
 from vpro_assets.rollout.policies.oracle.grasp import pick, plan_grasp
 from vpro_assets.rollout.policies.oracle.motion import OPEN, Actions
@@ -32,6 +34,10 @@ MAX_CARRY_ABOVE_TABLE_M = 0.45  # highest grip site the arm reaches comfortably,
 RELEASE_ABOVE_M = 0.012  # release when the object's bottom is this close to the destination surface
 RETREAT_M = 0.10
 CARRY_SPEED = 0.6  # a held object (a bowl pinched at its wall) slips under full-speed jerks
+CARRY_STALL_STEPS = 6  # a carry move has stalled (the arm stretched to its reach) after so many steps
+AWAY_GAP_M = 0.005  # an obstacle this far beside the carried object that the path leads away from is passed
+CARRY_DESCENT_M = 0.02  # the carry comes down on its way when that saves at least this much lowering
+CARRY_WAY_TOL_M = 0.02  # passing the way point where it may start coming down
 DRAWER_FRONT_M = 0.03  # a drawer's front panel lies this far behind its handle
 STALL_STEPS, STALL_DROP_M = 8, 0.002  # lowering has stalled when the hand sank less than this in so many steps
 
@@ -104,42 +110,94 @@ def support_height(world: World, xy: np.ndarray, exclude: tuple[str, ...] = (), 
     return float(boxes[under, 1, 2].max(initial=world.table_z))
 
 
-def corridor_top(world: World, a: np.ndarray, b: np.ndarray, margin: float, exclude: tuple[str, ...]) -> float:
-    """Highest obstacle top whose box comes within `margin` of the segment a-b (xy)."""
+def corridor_tops(
+    world: World,
+    a: np.ndarray,
+    b: np.ndarray,
+    margin: float,
+    exclude: tuple[str, ...],
+    own: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(points 2 cm apart along the segment a-b (xy), the highest obstacle top whose box comes
+    within `margin` of each). With `own` (the boxes of the carried object's pieces, at `a`): not an
+    obstacle that stands beside the object, at least AWAY_GAP_M from it, and that the path only
+    leads away from (the second bowl on the cabinet beside the one lifted out of its drawer:
+    counted, it set the carry higher than the arm reaches over the plate)."""
     ab = b - a
     n = max(2, int(np.linalg.norm(ab) / 0.02) + 1)
     samples = a + np.linspace(0, 1, n)[:, None] * ab
     boxes = obstacle_boxes(world, exclude)
-    lo, hi = boxes[:, None, 0, :2] - margin, boxes[:, None, 1, :2] + margin  # (N, 1, 2) against (n, 2)
-    near = np.any(np.all((samples >= lo) & (samples <= hi), axis=2), axis=1)
-    return float(boxes[near, 1, 2].max(initial=world.table_z))
+    lo, hi = boxes[:, None, 0, :2], boxes[:, None, 1, :2]  # (N, 1, 2) against (n, 2)
+    near = np.all((samples >= lo - margin) & (samples <= hi + margin), axis=2)  # (N, n)
+    if own is not None:
+        gap = _plan_gaps(boxes, own, samples - a)
+        near &= ~((gap[:, 0] >= AWAY_GAP_M) & np.all(gap >= gap[:, :1] - 1e-9, axis=1))[:, None]
+    tops = np.where(near, boxes[:, 1, 2][:, None], world.table_z).max(axis=0, initial=world.table_z)
+    return samples, tops
+
+
+def _plan_gaps(boxes: np.ndarray, own: np.ndarray, shifts: np.ndarray) -> np.ndarray:
+    """(N, n) distance in plan from each of `boxes` to the nearest of the boxes `own` shifted by
+    each of `shifts` (n, 2)."""
+    olo = own[None, :, 0, :2] + shifts[:, None]  # (n, M, 2)
+    ohi = own[None, :, 1, :2] + shifts[:, None]
+    lo, hi = boxes[:, None, None, 0, :2], boxes[:, None, None, 1, :2]  # (N, 1, 1, 2)
+    apart = np.maximum(np.maximum(lo - ohi, olo - hi), 0.0)  # (N, n, M, 2)
+    return np.linalg.norm(apart, axis=3).min(axis=2)
 
 
 def carry(world: World, held: str, xy: np.ndarray, exclude: tuple[str, ...] = ()) -> Actions:
-    """Move the held object's body position over `xy`, high enough to clear the corridor."""
+    """Move the held object's body position over `xy`: up high enough to clear the corridor (or
+    as high as the arm reaches: far out, stretched, it stalls below the height asked), along it
+    past the last obstacle higher than what stands at `xy`, then on over `xy` while coming down to
+    clear only that."""
     box = world.box(held)
     hang = world.eef()[2] - box.lo[2]  # grip site height above the object's bottom
     radius = float(np.max(box.size[:2])) / 2
     start = world.body_pos(held)[:2]
-    top = corridor_top(world, start, xy, radius + 0.02, exclude=(held, *exclude))
-    sway = SWAY * radius if world.hung else 0.0
-    z = min(max(top + CLEAR_M + sway + hang, world.eef()[2]), world.table_z + MAX_CARRY_ABOVE_TABLE_M)
+    samples, tops = corridor_tops(world, start, xy, radius + 0.02, (held, *exclude), object_boxes(world, held))
+    above = CLEAR_M + (SWAY * radius if world.hung else 0.0) + hang
+    z = min(max(float(tops.max()) + above, world.eef()[2]), world.table_z + MAX_CARRY_ABOVE_TABLE_M)
+    rest = np.maximum.accumulate(tops[::-1])[::-1]  # the highest top from each point on
+    low = int(np.argmax(rest <= rest[-1] + 1e-9))  # the first point past everything higher than the end's
     orient = world.eef_mat()
-    yield from motion.move_to(
-        world, [*world.eef()[:2], z], world.hold_grip, orient, tol=0.015, max_steps=80, speed=CARRY_SPEED
-    )
+    yield from _carry_leg(world, [*world.eef()[:2], z], orient, 0.015)
+    z = min(z, world.eef()[2] + 0.015)  # stalled below it: carry on at the height reached
+    end_z = min(z, float(rest[-1]) + above)
+    if end_z < z - CARRY_DESCENT_M:
+        if low > 0:
+            check_held(world, held, hang)
+            way = samples[min(low + 1, len(samples) - 1)]
+            offset = world.eef()[:2] - world.body_pos(held)[:2]
+            yield from _carry_leg(world, [*(way + offset), z], orient, CARRY_WAY_TOL_M)
+        z = end_z
     for _ in range(3):  # re-aim as the held object swings
         check_held(world, held, hang)
         offset = world.eef()[:2] - world.body_pos(held)[:2]
-        yield from motion.move_to(
-            world, [*(xy + offset), z], world.hold_grip, orient, tol=0.01, max_steps=120, speed=CARRY_SPEED
-        )
+        yield from _carry_leg(world, [*(xy + offset), z], orient, 0.01)
+        z = min(z, world.eef()[2] + 0.01)
     check_held(world, held, hang)
 
 
+def _carry_leg(world: World, goal, orient: np.ndarray, tol: float) -> Actions:
+    """One move of the held object, ended early when the arm stalls (CARRY_STALL_STEPS)."""
+    yield from motion.move_to(
+        world,
+        goal,
+        world.hold_grip,
+        orient,
+        tol=tol,
+        max_steps=120,
+        speed=CARRY_SPEED,
+        stall_steps=CARRY_STALL_STEPS,
+    )
+
+
 def check_held(world: World, held: str, hang: float) -> None:
-    """SkillFailed when the object has slipped out of the fingers."""
-    if world.eef()[2] - world.box(held).lo[2] > hang + 0.03 or world.finger_gap() < 0.002:
+    """SkillFailed when the object has slipped out of the fingers: they closed on nothing, or it
+    hangs lower than it was taken and no longer between both fingers (a bowl pinched at its rim
+    that tilts in them hangs lower too, and is still carried and set down)."""
+    if world.finger_gap() < 0.002 or (world.eef()[2] - world.box(held).lo[2] > hang + 0.03 and not world.held(held)):
         raise SkillFailed(f"{held} slipped out of the gripper")
 
 
