@@ -25,15 +25,15 @@ MUG_REGION = (-0.025, -0.025, 0.025, 0.025)  # LIBERO's white_yellow_mug_init_re
 UPRIGHT_DEG = 5.0  # LIBERO stands the mug upright; the knocked-over v2 starts were 83 degrees off
 
 
-def _touching(model, data, a: set[int], b: set[int]) -> float:
-    """The deepest contact between bodies `a` and `b` (0 when none touch), in metres."""
-    deepest = 0.0
+def _touching(model, data, a: set[int], b: set[int]) -> bool:
+    """Whether bodies `a` and `b` are in contact: MuJoCo reports a pair only within its margin (1 mm
+    on the microwave's door), and with no gap set every reported contact pushes."""
     for i in range(data.ncon):
         c = data.contact[i]
         b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
-        if ((b1 in a and b2 in b) or (b2 in a and b1 in b)) and c.dist < 0:
-            deepest = max(deepest, -float(c.dist))
-    return deepest
+        if (b1 in a and b2 in b) or (b2 in a and b1 in b):
+            return True
+    return False
 
 
 def _bodies(model, name: str) -> set[int]:
@@ -76,7 +76,7 @@ def test_the_mug_in_the_door_travel_starts_clear_of_it_in_its_own_region(tmp_pat
             for q in np.arange(-0.005, hinge, -0.001):
                 raw.sim.data.set_joint_qpos(DOOR, q)
                 mujoco.mj_forward(model, data)
-                assert _touching(model, data, door, mug) == 0.0, (trial, q)
+                assert not _touching(model, data, door, mug), (trial, q)
 
 
 def test_a_start_that_settling_tipped_or_pushed_against_the_microwave_is_refused(tmp_path):
@@ -138,7 +138,7 @@ def test_every_start_of_the_built_open75_case_has_the_mug_upright_at_rest_and_of
             assert x0 - 0.002 <= pos[0] <= x1 + 0.002 and y0 - 0.002 <= pos[1] <= y1 + 0.002, (trial, pos)
             assert math.degrees(math.acos(min(1.0, up[2]))) < UPRIGHT_DEG, (trial, up)
             mujoco.mj_forward(model, data)
-            assert _touching(model, data, mug, microwave) == 0.0, trial
+            assert not _touching(model, data, mug, microwave), trial
             before = pos.copy()
             s.wait(20)  # one more second of zero actions: it stays where it is
             assert np.linalg.norm(data.xpos[min(mug)] - before) < 0.002, trial
