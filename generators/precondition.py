@@ -9,6 +9,12 @@
   Variants `open25`, `open50`, `open75` (a second opening level) set the joint to that fraction
   of the way from the edge of LIBERO's closed range to the edge of its open range, where neither
   LIBERO's `is_open` nor its `is_close` holds, and drop any open/close init predicate of the part.
+  The part is taken to have come there from closed: an object LIBERO places in a rectangle of the
+  table (its init region) that this travel passes through, or within 5 mm of, starts at a spot of
+  that same region drawn clear of it, and a start where settling still moved or tilted it, or left
+  it touching the part's fixture, is drawn again (revision travel1, `scene.travel`). The microwave
+  door of libero_10-09 set 75% open (-0.98 rad) passes through LIBERO's mug in 9 of 10 trials; set
+  there at once it moved the mug up to 31 cm, knocked it over, or left it against the microwave.
 - object_pose: the target starts upside down (turned 180 degrees about the world x axis) at its
   LIBERO position of the trial, lowered onto the table and settled, so it rests in another
   stable pose. Where the turned target would touch a neighbour there (an inverted bowl's rim on
@@ -23,7 +29,7 @@ from __future__ import annotations
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.pose import LIE
-from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
+from vpro_assets.scene.variant import JointSetting, KeepClear, Placement, SceneVariant
 
 # The drawer right under the top of a cabinet a target goes on (libero_goal "on the top of the drawer").
 TOP_DRAWER_REGION = "top_region"
@@ -56,10 +62,9 @@ def _part_joints(ctx: GenContext, fixture: str, region: str) -> list[str]:
 def opening_value(ctx: GenContext, fixture: str, fraction: float) -> float:
     """The joint value `fraction` of the way from the edge of LIBERO's closed range to the edge of
     its open range (the edges that face each other)."""
-    art = ctx.base.object_classes[fixture].object_properties["articulation"]
-    closed, opened = art["default_close_ranges"], art["default_open_ranges"]
-    toward_open = max(closed) if min(opened) > max(closed) else min(closed)
-    toward_closed = min(opened) if min(opened) > max(closed) else max(opened)
+    opened = ctx.base.object_classes[fixture].object_properties["articulation"]["default_open_ranges"]
+    toward_open = closed_value(ctx, fixture)
+    toward_closed = min(opened) if min(opened) > toward_open else max(opened)
     return round(toward_open + fraction * (toward_closed - toward_open), 5)
 
 
@@ -75,7 +80,36 @@ def opening_setting(ctx: GenContext, fraction: float) -> tuple[list[str], list[J
         and parts[0].lower() in ("open", "close")
         and parts[1] in (region, fixture)
     ]
-    return drop, [JointSetting(j, value, value) for j in _part_joints(ctx, fixture, region)], fixture, region
+    closed = closed_value(ctx, fixture)
+    joints = [JointSetting(j, value, value, travel_from=closed) for j in _part_joints(ctx, fixture, region)]
+    return drop, joints, fixture, region
+
+
+def closed_value(ctx: GenContext, fixture: str) -> float:
+    """The edge of LIBERO's closed range of a fixture's part that faces its open range: where a
+    part set elsewhere is taken to have come from (`JointSetting.travel_from`)."""
+    art = ctx.base.object_classes[fixture].object_properties["articulation"]
+    closed, opened = art["default_close_ranges"], art["default_open_ranges"]
+    return float(max(closed) if min(opened) > max(closed) else min(closed))
+
+
+def table_regions(ctx: GenContext) -> list[KeepClear]:
+    """The movable objects LIBERO places in a rectangle of the table (their BDDL init region), with
+    that rectangle in world xy: where each may start instead when a set part's travel passes
+    through its LIBERO spot."""
+    out = []
+    objects = {i for i, _ in ctx.base.bddl.objects}
+    for p in ctx.base.bddl.init:
+        parts = p.strip("()").split()
+        if len(parts) != 3 or parts[0].lower() != "on" or parts[1] not in objects:
+            continue
+        region = ctx.base.bddl.parsed["regions"].get(parts[2])
+        if not region or region["target"] != ctx.base.workspace or not region["ranges"]:
+            continue
+        (x0, y0, x1, y1), (ox, oy) = region["ranges"][0], ctx.base.workspace_offset[:2]  # LIBERO's hold one
+        box = (round(x0 + ox, 6), round(y0 + oy, 6), round(x1 + ox, 6), round(y1 + oy, 6))
+        out.append(KeepClear(parts[1], box))
+    return out
 
 
 def openness_flip(ctx: GenContext) -> tuple[dict, list[JointSetting], str]:
@@ -100,14 +134,23 @@ def openness_flip(ctx: GenContext) -> tuple[dict, list[JointSetting], str]:
         add = f"({new_state.capitalize()} {region})"
         replace["__add__"] = add
     ranges = fixture.object_properties["articulation"][f"default_{new_state}_ranges"]
-    joints = _part_joints(ctx, fixture_name, region)
-    return replace, [JointSetting(j, float(min(ranges)), float(max(ranges))) for j in joints], new_state
+    low, high, closed = float(min(ranges)), float(max(ranges)), closed_value(ctx, fixture_name)
+    joints = [JointSetting(j, low, high, travel_from=closed) for j in _part_joints(ctx, fixture_name, region)]
+    return replace, joints, new_state
 
 
 # v2: a drawn joint value is drawn again where the part cuts into its own fixture, and a trial is
 # accepted only where the part moves under a gentle push (`scene.init_gen`): v1 started 4 of
 # libero_10-03's 10 trials with the bottom drawer jammed under the cabinet's base plate.
-@register("task_precondition_variation/receptacle_openness", version=2)
+# Revision TRAVEL_REVISION: the objects the part's travel from closed passes through start out of
+# it, in their own LIBERO region (`scene.travel`). A revision, not v3: it enters the input hash of
+# every case of this generator, so all are built again, but the BDDL's header keeps "-v2" and the
+# cases it leaves alone rebuild to the same bytes (and keep their certificate entries); which
+# cases it moves an object in takes the simulation to tell.
+TRAVEL_REVISION = "travel1"
+
+
+@register("task_precondition_variation/receptacle_openness", version=2, revision=lambda case: TRAVEL_REVISION)
 def receptacle_openness(ctx: GenContext) -> SceneVariant:
     """The drawer or door the task involves starts in the other open/closed state (or partly open),
     so it must be opened (or closed) first."""
@@ -122,6 +165,7 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
             fixtures=list(ctx.base.bddl.fixtures),
             init=ctx.init_with(drop=tuple(drop)),
             joints=joints,
+            keep_clear=table_regions(ctx),
             details={
                 "receptacle": fixture,
                 "part": region,
@@ -142,6 +186,7 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
         fixtures=list(ctx.base.bddl.fixtures),
         init=ctx.init_with(replace=replace, add=add),
         joints=joints,
+        keep_clear=table_regions(ctx),
         details={"receptacle": fixture, "state": new_state, "joints": [j.joint for j in joints]},
     )
 

@@ -90,23 +90,23 @@ def test_an_inverted_bowl_next_to_a_plate_moves_clear_and_rests_upside_down(tmp_
     assert up[2] < -0.95  # still upside down, not tipped onto its side
 
 
-def test_a_mug_in_the_sweep_of_a_door_set_ajar_is_slid_out_of_it(tmp_path):
+def test_a_mug_in_the_sweep_of_a_door_set_ajar_starts_out_of_it_in_its_region(tmp_path):
     """libero_10-09 trial 7 with the microwave door set 75% open: the door panel cuts through the mug
-    where LIBERO places it (11.6 mm deep; the first full build failed the case on every attempt). The
-    start must have no door/mug contact deeper than the build's 5 mm, the mug nearby and at rest."""
+    where LIBERO places it (11.6 mm deep; the first full build failed the case on every attempt, v2
+    then slid the mug out along the contact). Since travel1 the mug starts at a spot of its own
+    LIBERO region (+-2.5 cm about the table's origin) that the door's travel leaves clear: no
+    door/mug contact, and at rest."""
     from vpro_assets.scene import sim
 
     cid, trial = "libero_10-09/task_precondition_variation/receptacle_openness-v1-open75", 7
     with variant_env(cid, tmp_path) as (ctx, v, env):
         start_trial(env, ctx, v, trial)
         mug = ctx.task.target
-        deepest = max(
-            (p for a, b, p in sim.penetrations(env, 0.0) if "microdoor" in a + b and mug in a + b), default=0.0
-        )
+        touching = [p for a, b, p in sim.penetrations(env, 0.0) if "microdoor" in a + b and mug in a + b]
         qpos, _ = sim.free_object_state(env)[mug]
         moving = sim.moving_objects(env)
-    assert deepest < 0.005, deepest
-    assert np.linalg.norm(qpos[:2] - ctx.base.layouts[trial][mug]["pos"][:2]) < 0.06
+    assert not touching, touching
+    assert np.all(np.abs(qpos[:2]) <= 0.025), qpos[:2]
     assert not moving
 
 

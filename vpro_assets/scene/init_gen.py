@@ -17,6 +17,10 @@ still moves, e.g. a deformed target rocking on an uneven base). The state is acc
 - the task's goal is not already satisfied, and
 - one more second of zero actions from the stored state moves no object more than 1 cm (the
   check `vpro validate` repeats), and
+- an object the variant keeps clear of a set part's travel (`scene.travel`: moved, where the
+  travel from the part's closed end passes through it, to a clear spot of its own LIBERO region)
+  was not moved more than 5 mm or tilted more than 5 degrees by the settling, and touches no set
+  part's fixture, and
 - every part the variant's joints set moves when pushed gently toward the middle of its range
   (`jammed_parts`: a drawer drawn a few millimetres into LIBERO's closed range can run under its
   cabinet's base plate, where MuJoCo holds the overlap with kilonewtons: libero_10-03's bottom
@@ -42,7 +46,7 @@ import numpy as np
 from vpro_assets.core import seeding
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.mjgeom import quat_mul, subtree
-from vpro_assets.scene import sim
+from vpro_assets.scene import sim, travel
 from vpro_assets.scene.pose import INVERT, class_quat
 from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
 
@@ -368,11 +372,14 @@ def trial_state(
                 _draw_joint(env, js, rng)
             raw.sim.forward()
             _place(env, variant, rng, added, base_layout or {}, onto_support=attempt > 0)
-        except InitStateError as exc:
+            # Its own stream, so the draws of the variants without it stay as they were.
+            travel.keep_clear_of_travel(env, variant, seeding.rng(variant.case_id, trial, f"scene-travel-{attempt}"))
+        except (InitStateError, travel.NoClearSpot) as exc:
             reasons.append(f"attempt {attempt}: {exc}")
             continue
         if attempt > 0:
             _clear_of_set_parts(env, variant)
+        placed = travel.poses(env, variant)
         sim.settle(env)
         # An object still rocking (a deformed target on an uneven base) gets up to EXTRA_SETTLE more
         # seconds; a state at rest after the first second is never stepped further.
@@ -380,7 +387,7 @@ def trial_state(
             if not sim.moving_objects(env):
                 break
             sim.settle(env)
-        problems = _problems(env, bool(raw._check_success()))
+        problems = _problems(env, bool(raw._check_success())) + travel.disturbed(env, variant, placed)
         if not problems:
             state = sim.flattened_state(env)
             sim.load_state(env, state)

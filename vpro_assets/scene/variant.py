@@ -47,6 +47,18 @@ class JointSetting:
     joint: str
     low: float
     high: float
+    # The part is taken to have come from this value (its closed end): objects on that way start
+    # out of it (`SceneVariant.keep_clear`, `scene.travel`). None: set where it is, as before.
+    travel_from: float | None = None
+
+
+@dataclass(frozen=True)
+class KeepClear:
+    """An object a set part's travel must not pass through, and where it may start instead: the
+    rectangle LIBERO places its origin in (its BDDL init region on the table), in world xy."""
+
+    instance: str
+    box: tuple[float, float, float, float]  # x0, y0, x1, y1
 
 
 class WrittenObject(Protocol):
@@ -82,6 +94,7 @@ class SceneVariant:
     init: list[str] = field(default_factory=list)  # full init predicate list
     placements: list[Placement] = field(default_factory=list)
     joints: list[JointSetting] = field(default_factory=list)
+    keep_clear: list[KeepClear] = field(default_factory=list)  # objects kept out of the joints' travel
     generated_objects: list[GeneratedObject] = field(default_factory=list)
     added: list[str] = field(default_factory=list)  # instances the variant adds (distractors, visual-only)
     details: Mapping[str, object] = field(default_factory=dict)  # the rule's choices, recorded in meta.json
