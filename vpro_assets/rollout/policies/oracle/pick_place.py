@@ -33,6 +33,9 @@ SWAY = 0.5
 MAX_CARRY_ABOVE_TABLE_M = 0.45  # highest grip site the arm reaches comfortably, above the table
 RELEASE_ABOVE_M = 0.012  # release when the object's bottom is this close to the destination surface
 RETREAT_M = 0.10
+# A released object that hangs on the open hand is set down, then the hand moves this far toward the
+# object's middle along the fingers' axis before it rises (the inner finger out of where it jammed).
+FREE_M = 0.03
 CARRY_SPEED = 0.6  # a held object (a bowl pinched at its wall) slips under full-speed jerks
 CARRY_STALL_STEPS = 6  # a carry move has stalled (the arm stretched to its reach) after so many steps
 AWAY_GAP_M = 0.005  # an obstacle this far beside the carried object that the path leads away from is passed
@@ -203,22 +206,38 @@ def check_held(world: World, held: str, hang: float) -> None:
 
 def lower_and_release(world: World, held: str, dest: Destination) -> Actions:
     """Lower until the held object touches something other than the gripper or reaches the surface;
-    open and move up."""
+    open and move up. An object that still hangs on the open hand, touching it and nothing else, is
+    set down (`_lower`, the fingers open) and the hand moves FREE_M toward its middle before it
+    rises: a deformed bowl pinched at its wall can hold on to the inner finger jammed between its
+    hull pieces (libero_spatial-09 multipeak-s3, released 1 cm over the plate's rim: it came up
+    with the hand; set down only, it still did as the hand rose)."""
     orient = world.eef_mat()
+    yield from _lower(world, held, dest, orient, world.hold_grip, RELEASE_ABOVE_M)
+    yield from motion.gripper(world, OPEN, orient=orient)
+    if world.touching(held) == {"gripper"}:
+        yield from _lower(world, held, dest, orient, OPEN, -np.inf)
+        axis = world.finger_axis()
+        inward = axis * np.sign(axis[:2] @ (world.body_pos(held) - world.eef())[:2])
+        yield from motion.move_to(world, world.eef() + inward * FREE_M, OPEN, orient, tol=0.005, max_steps=20)
+    yield from motion.move_to(world, world.eef() + [0, 0, RETREAT_M], OPEN, orient, tol=0.02, max_steps=40)
+
+
+def _lower(world: World, held: str, dest: Destination, orient: np.ndarray, grip: float, above: float) -> Actions:
+    """Lower the hand, the held object's body position over the destination, until the object
+    touches something other than the gripper, its bottom is within `above` of the surface, or the
+    hand stops sinking."""
     heights: list[float] = []
     for _ in range(160):
         box = world.box(held)
         touching = world.touching(held) - {"gripper"}
-        if touching or box.lo[2] - dest.surface_z < RELEASE_ABOVE_M:
+        if touching or box.lo[2] - dest.surface_z < above:
             break
         heights.append(float(world.eef()[2]))
         if len(heights) > STALL_STEPS and heights[-STALL_STEPS - 1] - heights[-1] < STALL_DROP_M:
             break  # the hand rests on something (a basket's rim under its palm): let go here
         offset = world.eef()[:2] - world.body_pos(held)[:2]
         goal = np.array([*(dest.xy + offset), world.eef()[2] - 0.03])
-        yield motion.action_to(world, goal, world.hold_grip, orient, speed=0.5)
-    yield from motion.gripper(world, OPEN, orient=orient)
-    yield from motion.move_to(world, world.eef() + [0, 0, RETREAT_M], OPEN, orient, tol=0.02, max_steps=40)
+        yield motion.action_to(world, goal, grip, orient, speed=0.5)
 
 
 def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions:
