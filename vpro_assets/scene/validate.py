@@ -73,10 +73,13 @@ def validate_case(case: dict) -> Validation:
         result.seconds = time.perf_counter() - started
         return result
     try:
-        result.problems += _model_problems(env, found["meta"])
-        result.problems += _state_problems(env, case, found)
+        xml = sim.raw(env).sim.model.get_xml()
+        fixture_problems = _fixture_problems(env, found["meta"])
+        state_problems = _state_problems(env, case, found)
     finally:
         env.close()
+    # compiled again once the env's model is gone: one scene model (210 MB with textures) at a time
+    result.problems += _xml_problems(xml) + fixture_problems + state_problems
     result.seconds = time.perf_counter() - started
     return result
 
@@ -98,18 +101,23 @@ def _file_problems(case: dict, found: dict) -> list[str]:
     return problems
 
 
-def _model_problems(env, meta: dict) -> list[str]:
-    """The scene's MJCF compiles again without warnings; visual-only additions cannot collide."""
-    problems = []
+def _xml_problems(xml: str) -> list[str]:
+    """The scene's MJCF as MuJoCo writes it back (`get_xml()`) compiles again without warnings."""
     try:
-        model = mujoco.MjModel.from_xml_string(sim.raw(env).sim.model.get_xml())
+        model = mujoco.MjModel.from_xml_string(xml)
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
         warnings = [mujoco.mjtWarning(i).name for i in range(len(data.warning)) if data.warning[i].number]
         if warnings:
-            problems.append(f"the scene MJCF compiles with MuJoCo warning(s) {', '.join(warnings)}")
+            return [f"the scene MJCF compiles with MuJoCo warning(s) {', '.join(warnings)}"]
     except Exception as exc:
-        problems.append(f"the scene MJCF does not compile again in MuJoCo: {exc}")
+        return [f"the scene MJCF does not compile again in MuJoCo: {exc}"]
+    return []
+
+
+def _fixture_problems(env, meta: dict) -> list[str]:
+    """Visual-only additions cannot collide."""
+    problems = []
     m = sim.raw(env).sim.model._model
     for instance in meta.get("added", []):
         fixture = sim.raw(env).fixtures_dict.get(instance)
