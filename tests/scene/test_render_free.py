@@ -65,15 +65,15 @@ def test_render_free_build_matches_the_lock_and_validation_needs_no_renderer(tmp
     assert v.ok, v.problems
 
 
-def _settled(task_key: str, seeds: tuple[int, ...]) -> np.ndarray:
+def _settled(task_key: str, seeds: tuple[int, ...], fresh: bool = False) -> np.ndarray:
     task = get_task(task_key)
     rows = libero_init_states(task)
-    env = sim.physics_env(str(libero_bridge.bddl_path(task.suite, task.name)))
+    env = sim.physics_env(str(libero_bridge.bddl_path(task.suite, task.name)), fresh=fresh)
     out = []
     try:
         for k, seed in enumerate(seeds):
             if k:
-                env.reset()  # a hard reset: robosuite reloads the model
+                env.reset()  # a hard reset (robosuite reloads the model), or `fresh`'s soft one
             sim.place_fixtures(env, seed)
             sim.load_state(env, rows[k])
             sim.settle(env, 10)
@@ -93,6 +93,21 @@ def test_physics_only_step_and_model_cache_equal_robosuite_bit_for_bit(task_key)
     fast = _settled(task_key, (11, 12))
     assert physics.COUNTERS.compiles - compiles <= 1 and physics.COUNTERS.cache_hits - hits >= 2
     assert reference.tobytes() == fast.tobytes()
+
+
+@pytest.mark.parametrize("task_key", ["libero_goal-03"])
+def test_validation_env_compiles_once_and_gives_the_builds_states(task_key):
+    """`vpro validate`'s env (`fresh`: MuJoCo's XML load with textures, so `get_xml()` is its
+    scene's, and robosuite's soft reset on that model) compiles once, keeps no copy in the model
+    cache, and its trials (fixtures placed at each trial's seed on the model used before) end in
+    the states the build's env (hard resets, a model without textures) gives, bit for bit."""
+    build_states = _settled(task_key, (11, 12))
+    physics.clear_model_cache()
+    compiles, hits = physics.COUNTERS.compiles, physics.COUNTERS.cache_hits
+    validation_states = _settled(task_key, (11, 12), fresh=True)
+    assert physics.COUNTERS.compiles - compiles == 1 and physics.COUNTERS.cache_hits == hits
+    assert not physics._MODELS  # nothing kept: the env read its own compile
+    assert validation_states.tobytes() == build_states.tobytes()
 
 
 def test_render_free_episode_env_resets_without_compiling():

@@ -201,3 +201,17 @@ def test_clean_partial_removes_only_folders_of_dead_writers(tmp_path, monkeypatc
     build.clean_partial()
     left = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob(".*-*"))
     assert left == [f"objects/.tmp-vpro_thing-{alive}", f"scene/.tmp-a__b__d-{alive}"]
+
+
+def test_validation_reports_a_written_back_mjcf_that_does_not_compile_or_warns():
+    """`vpro validate` compiles the scene's written-back MJCF once its env is closed, from the text:
+    a text that does not compile is a problem, so is one whose first forward pass warns (20 spheres
+    piled into each other with room for too few contacts), and a sound one is none."""
+    from vpro_assets.scene.validate import _xml_problems
+
+    pile = "".join(f'<body pos="0 0 {0.01 * i}"><freejoint/><geom size="0.1"/></body>' for i in range(20))
+    sound = f"<mujoco><worldbody>{pile}</worldbody></mujoco>"
+    assert _xml_problems(sound) == []
+    assert _xml_problems("<mujoco><worldbody>")[0].startswith("the scene MJCF does not compile again")
+    crowded = sound.replace("<mujoco>", '<mujoco><size memory="16K"/>')
+    assert _xml_problems(crowded) == ["the scene MJCF compiles with MuJoCo warning(s) mjWARN_CONTACTFULL"]

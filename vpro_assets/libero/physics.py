@@ -30,8 +30,9 @@ control step without robosuite's repeated forward passes.
 
 A model copied from the cache was not parsed last, so MuJoCo's `mj_saveLastXML` (robosuite's
 `sim.model.get_xml()`) would write the spec of whatever was parsed last: an env built with
-`physics_env(..., fresh=True)` compiles at construction (its resets still reuse that compile), so
-right after it is built, `get_xml()` is its own scene's (what `vpro validate` checks).
+`physics_env(..., fresh=True)` compiles at construction and its resets are robosuite's soft
+resets on that model (no compile, no copy), so right after it is built, `get_xml()` is its own
+scene's (what `vpro validate` checks).
 """
 
 from __future__ import annotations
@@ -124,8 +125,10 @@ def clear_model_cache() -> None:
 
 
 def compiled_model(xml: str, fresh: bool = False) -> mujoco.MjModel:
-    """A model compiled from `xml`: a copy of the cached one where this text was compiled before
-    (`fresh`: compiled again all the same, and cached)."""
+    """A model compiled from `xml`: a copy of the cached one where this text was compiled before.
+    `fresh`: compiled again all the same by MuJoCo's XML load, and not cached: its env reads this
+    compile itself (`get_xml()`) and resets without recompiling (`physics_env`), so a pristine copy
+    (210 MB with textures, 0.1-0.3 s to copy) would only wait to be evicted."""
     key = hashlib.sha256(xml.encode()).hexdigest()
     cached = _MODELS.get(key) if _FAST[0] and not fresh else None
     if cached is not None:
@@ -138,7 +141,7 @@ def compiled_model(xml: str, fresh: bool = False) -> mujoco.MjModel:
     model = mujoco.MjModel.from_xml_string(xml) if fresh or not _FAST[0] else physics_model(xml)
     COUNTERS.compiles += 1
     COUNTERS.compile_seconds += time.perf_counter() - started
-    if _FAST[0]:
+    if _FAST[0] and not fresh:
         _MODELS[key] = copy.copy(model)  # kept pristine: LIBERO writes fixture placements into `model`
         while len(_MODELS) > MODEL_CACHE_SIZE:
             _MODELS.popitem(last=False)
@@ -183,11 +186,15 @@ def _compiles_through_cache(fresh: bool = False) -> Iterator[None]:
 
 def physics_env(bddl_file: str, fresh: bool = False, **kwargs):
     """LIBERO's ControlEnv for a BDDL file without renderer or camera observations, whose compiles
-    (construction and every hard reset) go through the model cache (module docstring); `fresh`:
-    the construction compiles in any case."""
+    (construction and every hard reset) go through the model cache (module docstring). `fresh`:
+    the construction compiles in any case (MuJoCo's XML load, textures included) and `reset()` is
+    robosuite's soft reset (`hard_reset=False`: the data reset and the same re-initialisation, on
+    the construction's model), so `get_xml()` reads this scene's compile, and the env compiles once."""
     libero_bridge.libero_envs()
     control_env = importlib.import_module("libero.libero.envs.env_wrapper").ControlEnv
     kwargs = {"has_renderer": False, "has_offscreen_renderer": False, "use_camera_obs": False, **kwargs}
+    if fresh:
+        kwargs["hard_reset"] = False
     with _compiles_through_cache(fresh):
         env = control_env(bddl_file_name=str(bddl_file), **kwargs)
     inner = env.env

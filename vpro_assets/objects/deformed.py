@@ -40,11 +40,9 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
-import multiprocessing
 import os
 import shutil
 from collections.abc import Mapping
-from concurrent.futures import ProcessPoolExecutor
 from importlib.metadata import version
 from pathlib import Path
 
@@ -53,6 +51,7 @@ from vpro_assets.benchmark.taxonomy import Setting
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import InvalidParameterError, UnknownIdError
 from vpro_assets.core.hashing import sha256_file
+from vpro_assets.core.lifetime import call_in_child
 from vpro_assets.core.memory import peak_rss_mb
 from vpro_assets.core.seeding import derive_seed
 from vpro_assets.geometry.convex import CoacdParams
@@ -236,20 +235,19 @@ def _generate_in_child(
     230 MB in a process that ran them (shared libraries' pages, malloc arenas, threads' stacks:
     docs/benchmarks.md, "Memory of a build worker"), which a scene-build worker would otherwise
     carry through every case after its first deformed object. Spawned, not forked: the worker
-    holds MuJoCo models and threads a fork would copy. The child imports `vpro_assets` first, so
+    holds MuJoCo models and threads a fork would copy. The child dies with the worker (a killed
+    build leaves no coacd running: `core.lifetime`). The child imports `vpro_assets` first, so
     its numpy kernels are pinned as this process's are (the bytes are the same: tested)."""
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=1, mp_context=context) as child:
-        return child.submit(
-            _generate_measured,
-            category,
-            deformation,
-            severity,
-            out_dir,
-            coacd_params=coacd_params,
-            force=True,  # the caller found no current object
-            fit_scale=fit_scale,
-        ).result()
+    return call_in_child(
+        _generate_measured,
+        category,
+        deformation,
+        severity,
+        out_dir,
+        coacd_params=coacd_params,
+        force=True,  # the caller found no current object
+        fit_scale=fit_scale,
+    )
 
 
 def _generate_measured(*args, **kwargs) -> GeneratedObject:

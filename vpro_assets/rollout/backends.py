@@ -14,17 +14,16 @@ one thread (`LP_NUM_THREADS=1`) so they do not fight over the cores.
 
 from __future__ import annotations
 
-import ctypes
 import logging
 import multiprocessing as mp
 import os
 import queue
-import signal
 from collections.abc import Iterable, Iterator
 from typing import Any
 
 from vpro_assets.core import numerics
 from vpro_assets.core.errors import VProError
+from vpro_assets.core.lifetime import die_with_parent
 from vpro_assets.rollout.case_env import release_cached_envs
 from vpro_assets.rollout.jobs import base_row, execute_job
 from vpro_assets.rollout.store import utc_now
@@ -48,16 +47,8 @@ def run_inline(jobs: Iterable[dict]) -> Iterator[dict]:
         release_cached_envs()
 
 
-def _die_with_parent() -> None:
-    try:
-        libc = ctypes.CDLL("libc.so.6", use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-
-
 def _worker_main(tasks, results, send_lock, parent_pid: int, env: dict) -> None:
-    _die_with_parent()
+    die_with_parent(parent_pid)
     os.environ.update(env)
     import logging as _logging
 

@@ -30,7 +30,8 @@ def physics_env(bddl_file: str, fresh: bool = False):
     """LIBERO's ControlEnv for a BDDL file, without cameras, renderer or textures (physics only;
     its reset reuses the model compiled at construction: `vpro_assets.libero.physics`). `fresh`:
     compiled at construction by MuJoCo's XML load, textures included, even where the same MJCF was
-    compiled before in this process."""
+    compiled before in this process, and reset without compiling again (robosuite's soft reset:
+    every trial re-places the fixtures on the model anyway, `place_fixtures`)."""
     # ignore_done: building steps one env through many trials, past LIBERO's 1000-step horizon.
     env = physics.physics_env(str(bddl_file), fresh=fresh, ignore_done=True)
     env.reset()
