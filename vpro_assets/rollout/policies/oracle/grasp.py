@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
@@ -43,6 +44,9 @@ REACH_M, REACH_SHIFT_M = 0.80, 0.035
 FAR_M, FAR_APPROACH_SPEED = 0.75, 0.5
 SETTLE_M, SETTLE_STILL_M, SETTLE_STEPS = 0.001, 0.0003, 20
 WALL_SIDES = 16  # candidate sides of a wide object's wall
+# `on_wall`: the wall is sampled this finely along the closing axis; a wall middle this far off the
+# inset point moves the grip point onto it.
+WALL_STEP_M, WALL_OFF_M = 0.0005, 0.005
 HANDLE_MAX_M = 0.045  # a handle is thinner than this across (a wall cut OUTER_BAND_M deep is wider)
 HANDLE_DIRECTIONS = 72  # directions searched for a handle, 5 degrees apart
 SOLID_TOP_M = 0.025  # a geom over the centre reaching this close to the top makes the top solid
@@ -61,10 +65,16 @@ FOOT_CLEAR_M = 0.002  # the fingers' footprint starts this far outside the foot
 FOOT_STEP_M = 0.0005
 MIN_FOOT_BAND_M = 0.002  # a foot standing less than this over what is under the fingers is not pinched
 FOOT_SQUEEZE_M = 0.002  # the fingers' target opening at least this far inside the foot (at most 1 cm more)
+# A top face tilted less than this is taken as level: across a 4.6 cm foot it falls under half of FOOT_SLICE_M.
+LEVEL_TILT_RAD = 0.01
 # A side entry (`side_entry`): the shifts along the wall tried; sliding in, a hand stopped this many
 # steps by the overhang closes where it is.
 ENTRY_STEP_M, ENTRY_MAX_M = 0.005, 0.06
 ENTRY_STALL_STEPS = 5
+# A wall pinch closes only while the grip site stays this close (horizontally) to where the close began
+# (`close_on_wall`; under WALL_INSET_M); a hand swayed farther is held there for at most SWAY_STEPS
+# while it comes back.
+SWAY_M, SWAY_STEPS = 0.01, 30
 
 
 @dataclass(frozen=True)
@@ -161,14 +171,14 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     robot /= np.linalg.norm(robot)
     boxes = obstacle_boxes(world, (instance,))
     z = max(hi[2] - WALL_DEPTH_M, lo[2] + 0.4 * height)
+    facets = hull_facets(world.hulls(instance))
     sides = []
     for k in sorted(range(WALL_SIDES), key=lambda k: abs(((k + WALL_SIDES / 2) % WALL_SIDES) - WALL_SIDES / 2)):
         ang = 2 * np.pi * k / WALL_SIDES
         rot = np.array([[np.cos(ang), -np.sin(ang), 0], [np.sin(ang), np.cos(ang), 0], [0, 0, 1]])
         toward = rot @ robot
         proj = (pts[:, :2] - center[:2]) @ toward[:2]
-        point = center + toward * (proj.max() - WALL_INSET_M)
-        point[2] = z
+        point = on_wall(facets, center + toward * (proj.max() - WALL_INSET_M) + [0, 0, z], toward)
         sides.append(Grasp(point, toward, 2 * WALL_INSET_M, rim=True))  # nearest the robot first
     reach = [max(z, reach_height(boxes, g.point, g.axis, WITH_WRIST)) for g in sides]
     k = int(np.argmin(np.round(reach, 3)))  # the deepest pinch; of equals, nearest the robot
@@ -181,6 +191,49 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     sides = [replace(g, entry=side_entry(boxes, g)) for g in sides]
     entering = [g for g in sides if g.entry.any()]
     return min(entering or sides, key=lambda g: blocked_spots(boxes, g))
+
+
+def on_wall(facets: list[np.ndarray], point: np.ndarray, toward: np.ndarray) -> np.ndarray:
+    """A wall pinch's grip point (WALL_INSET_M inside the object's outer extent toward `toward`, a
+    horizontal unit vector; facets: the object's `hull_facets`) moved along `toward` to the middle of the wall the line through it
+    meets at its height (the first run of the object's hulls met coming in from outside, sampled
+    every WALL_STEP_M), when that middle lies more than WALL_OFF_M from it; as it is otherwise, or
+    when the line meets no wall within 2 * WALL_INSET_M of the extent. The fingers close evenly
+    about the grip site: on a wall standing off it, only the near finger reaches the wall unless
+    the object slides over to the other. A bowl's rim is its widest part, so its wall at the
+    pinch height lies inside the extent by the rim's flare: LIBERO's akita bowl's 3-4 mm (the
+    light bowl slides onto the other pad); a tapered one's 7 mm, where a bowl pressed into its
+    support (libero_spatial-07's tapered bowls, their foot through the stove's 1 mm top plate)
+    did not slide, and the far pad closed on air."""
+    steps = np.arange(WALL_INSET_M + WALL_STEP_M, -WALL_INSET_M, -WALL_STEP_M)
+    inside = _inside(facets, point + np.outer(steps, toward))
+    if not inside.any():
+        return point
+    first = int(np.argmax(inside))
+    run = inside[first:]
+    last = first + (int(np.argmin(run)) if not run.all() else len(run)) - 1
+    middle = float(steps[first] + steps[last]) / 2
+    return point + toward * middle if abs(middle) > WALL_OFF_M else point
+
+
+def hull_facets(hulls: list[np.ndarray]) -> list[np.ndarray]:
+    """The facets (`scipy.spatial.ConvexHull`'s equations: n . p + d <= 0 inside) of each convex
+    hull (a point array) that has an inside (a flat piece, coplanar points, has none)."""
+    out = []
+    for h in hulls:
+        try:
+            out.append(ConvexHull(h).equations)
+        except QhullError:
+            continue
+    return out
+
+
+def _inside(facets: list[np.ndarray], pts: np.ndarray) -> np.ndarray:
+    """Which of the points (N x 3) lie inside some of the hulls (`hull_facets`)."""
+    out = np.zeros(len(pts), dtype=bool)
+    for f in facets:
+        out |= np.all(pts @ f[:, :3].T + f[:, 3] <= 1e-9, axis=1)
+    return out
 
 
 def within_reach(point: np.ndarray) -> np.ndarray:
@@ -302,10 +355,19 @@ def foot_grasp(world: World, instance: str) -> Grasp | None:
     what lies under the fingers' footprint (across the plus's corners: about 4 mm, where the shoulders
     under the fingers are lower). The fingers close to just inside the foot and hold there: closed
     fully, their 20 N press them over the foot's edge. None when the top does not stand over the
-    object's middle or no direction leaves MIN_FOOT_BAND_M."""
+    object's middle, is not solid there (the mouth of an upright bowl a taper narrowed to 7 cm: a
+    ring round the cavity, whose wall slopes out under the fingers, so a gentle squeeze from
+    outside slides up it) or no direction leaves MIN_FOOT_BAND_M. Depths are measured square to
+    the top face (`top_face_up`): an inverted bowl resting 2.4 degrees tilted on a ramekin has its
+    foot's top 2 mm lower on one side, so a level slice of FOOT_SLICE_M was a 2.4 cm crescent off
+    the middle, and a level cut reached the high side's shoulders 1.7 mm under the top."""
     hulls = world.hulls(instance)
     top = max(float(h[:, 2].max()) for h in hulls)
-    foot = above(hulls, top - FOOT_SLICE_M)
+    if solid_below(hulls, top) > SOLID_TOP_M:
+        return None
+    up = top_face_up(hulls)
+    top = max(float((h @ up).max()) for h in hulls)  # along `up`: the world top when the face is level
+    foot = beyond(hulls, up, top - FOOT_SLICE_M)
     dirs, across = widths(foot)
     # A foot stands over the object's middle: the top of a tilted upright bowl is an arc of its rim.
     pts = np.concatenate(hulls)
@@ -313,7 +375,7 @@ def foot_grasp(world: World, instance: str) -> Grasp | None:
     reach = foot[:, :2] @ dirs[:, :2].T
     if np.any(middle < reach.min(0) + FOOT_CLEAR_M) or np.any(middle > reach.max(0) - FOOT_CLEAR_M):
         return None
-    cuts = [above(hulls, top - depth) for depth in np.arange(FOOT_STEP_M, NARROW_DEPTH_M + 1e-9, FOOT_STEP_M)]
+    cuts = [beyond(hulls, up, top - depth) for depth in np.arange(FOOT_STEP_M, NARROW_DEPTH_M + 1e-9, FOOT_STEP_M)]
     best: tuple[float, int] | None = None
     for k in range(0, len(dirs), 5):
         if across[k] + 2 * FOOT_CLEAR_M > MAX_PINCH_M:
@@ -324,8 +386,49 @@ def foot_grasp(world: World, instance: str) -> Grasp | None:
     if best is None or best[0] < MIN_FOOT_BAND_M:
         return None
     band, k = best
-    point = _middle(foot, dirs[k], top - band + FOOT_STEP_M + FINGERTIP_M)
+    point = _middle(foot, dirs[k], 0.0)
+    face = (top - up[:2] @ point[:2]) / up[2]  # the top face's height over the foot's middle
+    point[2] = face - band + FOOT_STEP_M + FINGERTIP_M
     return Grasp(point, dirs[k], float(across[k]), rim=False, squeeze_to=float(across[k]) - FOOT_SQUEEZE_M)
+
+
+def top_face_up(hulls: list[np.ndarray]) -> np.ndarray:
+    """The unit normal of an object's top face (its collision geoms' convex hulls): of the hull
+    holding the highest point, its facet nearest level; exactly vertical when that facet tilts less
+    than LEVEL_TILT_RAD (or the hull is flat)."""
+    vertical = np.array([0.0, 0.0, 1.0])
+    highest = max(hulls, key=lambda h: float(h[:, 2].max()))
+    try:
+        facets = ConvexHull(highest).equations
+    except QhullError:
+        return vertical
+    normal = facets[int(np.argmax(facets[:, 2])), :3]
+    normal = normal / np.linalg.norm(normal)
+    return vertical if float(np.arccos(np.clip(normal[2], -1.0, 1.0))) < LEVEL_TILT_RAD else normal
+
+
+def solid_below(hulls: list[np.ndarray], top: float) -> float:
+    """How far below `top` the object (its collision geoms' convex hulls) is first solid on the
+    vertical line through the middle of its extent (inf: nowhere, the line misses every hull). From
+    each hull's facets (`scipy.spatial.ConvexHull`: n . p + d <= 0 inside), the line's highest
+    point inside it."""
+    pts = np.concatenate(hulls)
+    middle = (pts.min(0)[:2] + pts.max(0)[:2]) / 2
+    highest = -np.inf
+    for h in hulls:
+        try:
+            facets = ConvexHull(h).equations
+        except QhullError:  # a flat piece (coplanar points) has no inside
+            continue
+        normal_z, rest = facets[:, 2], facets[:, :2] @ middle + facets[:, 3]
+        level = np.abs(normal_z) < 1e-12
+        if np.any(rest[level] > 1e-12):
+            continue
+        upper = np.min(-rest[normal_z > 0] / normal_z[normal_z > 0], initial=np.inf)
+        lower = np.max(-rest[normal_z < 0] / normal_z[normal_z < 0], initial=-np.inf)
+        if lower <= upper:
+            highest = max(highest, upper)
+    return top - highest
 
 
 def _foot_band(foot: np.ndarray, cuts: list[np.ndarray], axis: np.ndarray) -> float:
@@ -437,7 +540,10 @@ def pick(
                 yield from motion.move_to(
                     world, grasp.point, OPEN, orient, tol=0.006, max_steps=60, speed=0.4, stall_steps=ENTRY_STALL_STEPS
                 )
-            yield from motion.gripper(world, CLOSE, orient=orient)
+            if grasp.rim and not entry.any():
+                yield from close_on_wall(world, orient)
+            else:
+                yield from motion.gripper(world, CLOSE, orient=orient)
             if entry.any():
                 yield from motion.move_to(world, world.eef() + entry, CLOSE, orient, tol=0.006, max_steps=60, speed=0.4)
         else:
@@ -481,6 +587,27 @@ def settle(world: World, point: np.ndarray, orient: np.ndarray) -> Actions:
             return
         last = now
         yield motion.action_to(world, point, OPEN, orient, speed=0.4)
+
+
+def close_on_wall(world: World, orient: np.ndarray) -> Actions:
+    """Close the fingers on a wall pinch in place (`motion.gripper`'s GRIPPER_STEPS closing actions),
+    but only while the grip site stays within SWAY_M (horizontally) of where the close began: while
+    it is farther, the fingers stop where they are (gripper action 0) and the hand is held there (at
+    most SWAY_STEPS steps). A wall is a few millimetres thick and pinched WALL_INSET_M (1.2 cm)
+    inside the object's outer extent, so a hand 1.2 cm off shuts its outer finger on air and only
+    the inner one reaches the wall. The arm folded over an object near its base (a bowl on
+    libero_spatial-07's stove, 36 cm from it) sways away toward the base after the descent stops,
+    tilting 4 degrees: 1 cm off 4 steps into the close, 1.4 cm at its end, back in about 20 steps.
+    Elsewhere the hand sways at most about 7 mm and is back by the close's end (libero_spatial-04,
+    -05): it closes exactly as `motion.gripper`."""
+    hold, closing, waited = world.eef(), 0, 0
+    while closing < motion.GRIPPER_STEPS:
+        if float(np.linalg.norm((world.eef() - hold)[:2])) > SWAY_M and waited < SWAY_STEPS:
+            waited += 1
+            yield motion.action_to(world, hold, 0.0, orient)
+            continue
+        closing += 1
+        yield motion.action_to(world, hold, CLOSE, orient)
 
 
 def squeeze(world: World, opening: float, orient: np.ndarray) -> Actions:
