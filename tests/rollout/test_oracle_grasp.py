@@ -263,54 +263,20 @@ def test_foot_of_an_inverted_bowl_level_or_tilted_and_none_on_an_upright_bowls_n
     )
 
 
-def test_wall_pinch_point_on_the_wall_of_a_bowl_narrowed_toward_its_rim(scene):
-    """`on_wall`: the wall pinch's grip point, WALL_INSET_M inside the bowl's outer extent, stays
-    where it is on LIBERO's akita bowl (libero_spatial-00: its wall at the pinch height lies 3-4 mm
-    inside that point, under WALL_OFF_M); on the same bowl narrowed toward its rim (horizontal
-    scale falling from 1 at the foot to 0.62 at the rim, as libero_spatial-07's tapered bowls: its
-    widest part low on the wall, the wall at the pinch height 7-10 mm outside the inset point,
-    where the far finger closed on air), it moves out onto the wall: the grip point lies inside the
-    wall, midway through it."""
-    s = scene("libero_spatial-00/normal")
-    upright = s.world.hulls("akita_black_bowl_1")
-    pts = np.concatenate(upright)
-    lo, hi = pts.min(0), pts.max(0)
-    mid = (lo + hi) / 2
-    toward = np.array([-1.0, 0.0, 0.0])
-    flat = np.array([1.0, 1.0, 0.0])
-    narrowed = [
-        h * [0, 0, 1] + mid * flat + (h - mid) * flat * (1 - 0.38 * (h[:, 2:] - lo[2]) / (hi[2] - lo[2]))
-        for h in upright
-    ]
-    for hulls, moves in ((upright, False), (narrowed, True)):
-        p = np.concatenate(hulls)
-        reach = float(((p[:, :2] - mid[:2]) @ toward[:2]).max())
-        inset = np.append(mid[:2], 0.0) + toward * (reach - grasp_mod.WALL_INSET_M)
-        inset[2] = max(hi[2] - grasp_mod.WALL_DEPTH_M, lo[2] + 0.4 * (hi[2] - lo[2]))
-        facets = grasp_mod.hull_facets(hulls)
-        point = grasp_mod.on_wall(facets, inset, toward)
-        if not moves:
-            np.testing.assert_array_equal(point, inset)
-            continue
-        assert float((point - inset) @ toward) > grasp_mod.WALL_OFF_M  # moved out, onto the wall
-        assert grasp_mod._inside(facets, point[None])[0] and not grasp_mod._inside(facets, inset[None])[0]
-        # Midway: the wall reaches about as far beyond the point on either side along the axis.
-        steps = np.arange(-0.01, 0.01, 0.0005)
-        solid = grasp_mod._inside(facets, point + np.outer(steps, toward))
-        assert abs(steps[solid].max() + steps[solid].min()) <= 0.001
-
-
 class _Swaying:
     """A hand whose grip site follows a script of offsets along x, one per action taken."""
 
-    def __init__(self, offsets):
-        self.offsets, self.taken = offsets, 0
+    def __init__(self, offsets, touch_at=10**6):
+        self.offsets, self.taken, self.touch_at = offsets, 0, touch_at
 
     def eef(self):
         return np.array([self.offsets[min(self.taken, len(self.offsets) - 1)], 0.0, 1.0])
 
     def eef_mat(self):
         return motion.DOWN.copy()
+
+    def touching(self, instance):
+        return {"gripper"} if self.taken >= self.touch_at else set()
 
 
 def _take(world, actions):
@@ -327,31 +293,25 @@ def test_wall_pinch_closes_only_while_the_hand_stays_over_it():
     (libero_spatial-07: 1.4 cm toward the arm's base after the descent, back in about 20 steps)
     has its fingers stopped (gripper action 0) and is held where the close began while it is more
     than SWAY_M off, then closes the rest of the 12 steps; one that does not come back closes after
-    SWAY_STEPS."""
+    SWAY_STEPS; one whose fingers already touch the object closes on."""
     for small in ([0.0], [0.0, 0.001, 0.003, 0.005, 0.007, 0.007, 0.006, 0.004, 0.002, 0.0]):
         world = _Swaying(small)
-        closed = _take(world, close_on_wall(world, motion.DOWN))
+        closed = _take(world, close_on_wall(world, "bowl", motion.DOWN))
         world = _Swaying(small)
         np.testing.assert_array_equal(closed, _take(world, motion.gripper(world, motion.CLOSE, orient=motion.DOWN)))
     sway = [0.0, 0.004, 0.008, 0.011, 0.013, 0.014, 0.012, 0.009, 0.004, 0.0]
     world = _Swaying(sway)
-    actions = _take(world, close_on_wall(world, motion.DOWN))
+    actions = _take(world, close_on_wall(world, "bowl", motion.DOWN))
     np.testing.assert_array_equal(actions[:, 6], [1, 1, 1, 0, 0, 0, 0] + [1] * 9)
     assert np.all(actions[3:7, 0] < 0)  # pulled back toward where the close began
     assert sway[3] > SWAY_M > sway[7]
     world = _Swaying([0.0, 0.0, 0.015])
-    stuck = _take(world, close_on_wall(world, motion.DOWN))
+    stuck = _take(world, close_on_wall(world, "bowl", motion.DOWN))
     np.testing.assert_array_equal(stuck[:, 6], [1, 1] + [0] * SWAY_STEPS + [1] * 10)
-
-
-@pytest.mark.slow
-def test_tapered_upright_bowl_on_the_stove_is_lifted():
-    """libero_spatial-07 taper-s3 trial 0: the bowl a taper narrowed toward its rim stands upright
-    on the stove. Its rim, 6.6 cm across, is no foot: it is taken at its wall, the grip point on
-    the wall (`on_wall`, 9 mm outside the inset point), and carried to the plate (0/10 in the
-    certificate before; foot-pinched, the fingers slid up the rim). The scene is built first."""
-    row = oracle_episode("libero_spatial-07/target_geometry_variation/taper-s3-v1", 0, build=True)
-    assert row["success"] and row["steps"] < 200
+    # A finger on the object (libero_spatial-07's multipeak-s3 lobe): the close goes on, swayed or not.
+    world = _Swaying(sway, touch_at=4)
+    touched = _take(world, close_on_wall(world, "bowl", motion.DOWN))
+    np.testing.assert_array_equal(touched[:, 6], [1, 1, 1, 0] + [1] * 9)
 
 
 @pytest.mark.slow

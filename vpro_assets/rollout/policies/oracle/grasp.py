@@ -44,9 +44,6 @@ REACH_M, REACH_SHIFT_M = 0.80, 0.035
 FAR_M, FAR_APPROACH_SPEED = 0.75, 0.5
 SETTLE_M, SETTLE_STILL_M, SETTLE_STEPS = 0.001, 0.0003, 20
 WALL_SIDES = 16  # candidate sides of a wide object's wall
-# `on_wall`: the wall is sampled this finely along the closing axis; a wall middle this far off the
-# inset point moves the grip point onto it.
-WALL_STEP_M, WALL_OFF_M = 0.0005, 0.005
 HANDLE_MAX_M = 0.045  # a handle is thinner than this across (a wall cut OUTER_BAND_M deep is wider)
 HANDLE_DIRECTIONS = 72  # directions searched for a handle, 5 degrees apart
 SOLID_TOP_M = 0.025  # a geom over the centre reaching this close to the top makes the top solid
@@ -171,14 +168,14 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     robot /= np.linalg.norm(robot)
     boxes = obstacle_boxes(world, (instance,))
     z = max(hi[2] - WALL_DEPTH_M, lo[2] + 0.4 * height)
-    facets = hull_facets(world.hulls(instance))
     sides = []
     for k in sorted(range(WALL_SIDES), key=lambda k: abs(((k + WALL_SIDES / 2) % WALL_SIDES) - WALL_SIDES / 2)):
         ang = 2 * np.pi * k / WALL_SIDES
         rot = np.array([[np.cos(ang), -np.sin(ang), 0], [np.sin(ang), np.cos(ang), 0], [0, 0, 1]])
         toward = rot @ robot
         proj = (pts[:, :2] - center[:2]) @ toward[:2]
-        point = on_wall(facets, center + toward * (proj.max() - WALL_INSET_M) + [0, 0, z], toward)
+        point = center + toward * (proj.max() - WALL_INSET_M)
+        point[2] = z
         sides.append(Grasp(point, toward, 2 * WALL_INSET_M, rim=True))  # nearest the robot first
     reach = [max(z, reach_height(boxes, g.point, g.axis, WITH_WRIST)) for g in sides]
     k = int(np.argmin(np.round(reach, 3)))  # the deepest pinch; of equals, nearest the robot
@@ -191,49 +188,6 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     sides = [replace(g, entry=side_entry(boxes, g)) for g in sides]
     entering = [g for g in sides if g.entry.any()]
     return min(entering or sides, key=lambda g: blocked_spots(boxes, g))
-
-
-def on_wall(facets: list[np.ndarray], point: np.ndarray, toward: np.ndarray) -> np.ndarray:
-    """A wall pinch's grip point (WALL_INSET_M inside the object's outer extent toward `toward`, a
-    horizontal unit vector; facets: the object's `hull_facets`) moved along `toward` to the middle of the wall the line through it
-    meets at its height (the first run of the object's hulls met coming in from outside, sampled
-    every WALL_STEP_M), when that middle lies more than WALL_OFF_M from it; as it is otherwise, or
-    when the line meets no wall within 2 * WALL_INSET_M of the extent. The fingers close evenly
-    about the grip site: on a wall standing off it, only the near finger reaches the wall unless
-    the object slides over to the other. A bowl's rim is its widest part, so its wall at the
-    pinch height lies inside the extent by the rim's flare: LIBERO's akita bowl's 3-4 mm (the
-    light bowl slides onto the other pad); a tapered one's 7 mm, where a bowl pressed into its
-    support (libero_spatial-07's tapered bowls, their foot through the stove's 1 mm top plate)
-    did not slide, and the far pad closed on air."""
-    steps = np.arange(WALL_INSET_M + WALL_STEP_M, -WALL_INSET_M, -WALL_STEP_M)
-    inside = _inside(facets, point + np.outer(steps, toward))
-    if not inside.any():
-        return point
-    first = int(np.argmax(inside))
-    run = inside[first:]
-    last = first + (int(np.argmin(run)) if not run.all() else len(run)) - 1
-    middle = float(steps[first] + steps[last]) / 2
-    return point + toward * middle if abs(middle) > WALL_OFF_M else point
-
-
-def hull_facets(hulls: list[np.ndarray]) -> list[np.ndarray]:
-    """The facets (`scipy.spatial.ConvexHull`'s equations: n . p + d <= 0 inside) of each convex
-    hull (a point array) that has an inside (a flat piece, coplanar points, has none)."""
-    out = []
-    for h in hulls:
-        try:
-            out.append(ConvexHull(h).equations)
-        except QhullError:
-            continue
-    return out
-
-
-def _inside(facets: list[np.ndarray], pts: np.ndarray) -> np.ndarray:
-    """Which of the points (N x 3) lie inside some of the hulls (`hull_facets`)."""
-    out = np.zeros(len(pts), dtype=bool)
-    for f in facets:
-        out |= np.all(pts @ f[:, :3].T + f[:, 3] <= 1e-9, axis=1)
-    return out
 
 
 def within_reach(point: np.ndarray) -> np.ndarray:
@@ -541,7 +495,7 @@ def pick(
                     world, grasp.point, OPEN, orient, tol=0.006, max_steps=60, speed=0.4, stall_steps=ENTRY_STALL_STEPS
                 )
             if grasp.rim and not entry.any():
-                yield from close_on_wall(world, orient)
+                yield from close_on_wall(world, instance, orient)
             else:
                 yield from motion.gripper(world, CLOSE, orient=orient)
             if entry.any():
@@ -589,11 +543,13 @@ def settle(world: World, point: np.ndarray, orient: np.ndarray) -> Actions:
         yield motion.action_to(world, point, OPEN, orient, speed=0.4)
 
 
-def close_on_wall(world: World, orient: np.ndarray) -> Actions:
+def close_on_wall(world: World, instance: str, orient: np.ndarray) -> Actions:
     """Close the fingers on a wall pinch in place (`motion.gripper`'s GRIPPER_STEPS closing actions),
     but only while the grip site stays within SWAY_M (horizontally) of where the close began: while
-    it is farther, the fingers stop where they are (gripper action 0) and the hand is held there (at
-    most SWAY_STEPS steps). A wall is a few millimetres thick and pinched WALL_INSET_M (1.2 cm)
+    it is farther and no finger touches the object yet, the fingers stop where they are (gripper
+    action 0) and the hand is held there (at most SWAY_STEPS steps). Once a finger touches it, the
+    close goes on: stopped against a lobe of libero_spatial-07's multipeak-s3 bowl while the hand
+    was pulled back, the fingers took it by the lobe's edge and it slipped out (6 of 10 trials). A wall is a few millimetres thick and pinched WALL_INSET_M (1.2 cm)
     inside the object's outer extent, so a hand 1.2 cm off shuts its outer finger on air and only
     the inner one reaches the wall. The arm folded over an object near its base (a bowl on
     libero_spatial-07's stove, 36 cm from it) sways away toward the base after the descent stops,
@@ -602,7 +558,8 @@ def close_on_wall(world: World, orient: np.ndarray) -> Actions:
     -05): it closes exactly as `motion.gripper`."""
     hold, closing, waited = world.eef(), 0, 0
     while closing < motion.GRIPPER_STEPS:
-        if float(np.linalg.norm((world.eef() - hold)[:2])) > SWAY_M and waited < SWAY_STEPS:
+        swayed = float(np.linalg.norm((world.eef() - hold)[:2])) > SWAY_M
+        if swayed and waited < SWAY_STEPS and "gripper" not in world.touching(instance):
             waited += 1
             yield motion.action_to(world, hold, 0.0, orient)
             continue
