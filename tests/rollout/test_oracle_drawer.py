@@ -5,6 +5,7 @@ Each skill test runs one skill alone from a task's first initial state (the `sce
 checks LIBERO's own predicate, not the skill's opinion of itself.
 """
 
+import numpy as np
 import pytest
 from conftest import oracle_episode
 
@@ -40,6 +41,25 @@ def test_low_drawer_opens_by_dragging_its_handle_past_libero_open_threshold(scen
     assert s.holds(("open", region))
 
 
+def test_half_open_drawer_over_the_plate_opens_without_the_palm_on_the_plate(scene):
+    """libero_goal-00's middle drawer half open (-0.07, as its precondition case -open50 starts it;
+    set here so a clean clone needs no built scene case) brings its handle over the plate: a
+    vertical pinch would put the palm's lower end under the plate's rim. The palm slid along the rim
+    on its way in, the plate pushed the hand off the handle's middle and the grip slipped while
+    pulling (the drawer stayed short of LIBERO's Open). The handle is dragged instead, opening the
+    drawer past LIBERO's Open without moving the plate."""
+    s = scene("libero_goal-00/normal")
+    region = "wooden_cabinet_1_middle_region"
+    joint = drawer.joint_for(s.world, region)
+    s.set_joint(joint.id, -0.07)
+    assert drawer.floor_under_palm(s.world, joint) > s.world.table_z  # the plate's rim under the palm
+    assert not drawer.pinch_fits(s.world, joint)
+    plate = s.world.body_pos("plate_1").copy()
+    s.run(drawer.open_(s.world, region), limit=120)
+    assert s.world.qpos(joint.id) < -0.14 and s.holds(("open", region)) and s.cenv.success()
+    assert np.linalg.norm(s.world.body_pos("plate_1") - plate) < 0.005
+
+
 def test_jammed_drawer_fails_fast(scene):
     """Shut at 4.5 mm (inside LIBERO's closed range, 0 to 5 mm), the bottom drawer's front is wedged
     under the cabinet's base plate and does not move: the skill says so instead of pressing on."""
@@ -61,3 +81,14 @@ def test_bowl_put_in_the_drawer_that_starts_open_over_it(trial):
     case_id = "libero_goal-03/task_precondition_variation/receptacle_openness-v1"
     row = oracle_episode(case_id, trial, build=True)
     assert row["success"], row
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", [0, 2, 4])
+def test_half_open_middle_drawer_case_solved_within_libero_goal_limit(trial):
+    """libero_goal-00's receptacle-openness case -open50 (the middle drawer starts half open, its
+    handle over the plate): trials 0, 2 and 4 failed with the palm sliding along the plate's rim.
+    Each within the suite's 300 steps. The scene is built first (a no-op when it is current)."""
+    case_id = "libero_goal-00/task_precondition_variation/receptacle_openness-v1-open50"
+    row = oracle_episode(case_id, trial, build=True)
+    assert row["success"] and row["steps"] < 300, row

@@ -7,7 +7,8 @@ moves onto it, closes on it and pulls along the axis until LIBERO's `Open` check
 drawer matters: the handles of a cabinet's drawers stand one above the other, so a hand coming down
 from above meets the handle over the one it wants. A handle lower over the table than half the
 palm's length (libero_10-03's bottom drawer, 4.6 cm: the palm is 21 cm along the closing axis, so
-a vertical pinch puts it on the table) is dragged instead: the closed fingertips, the hand leaning
+a vertical pinch puts it on the table), or over what stands in front of the drawer under the palm
+(libero_goal-00's middle drawer half open: its handle 9.6 cm over the plate's rim), is dragged instead: the closed fingertips, the hand leaning
 down as for closing (its palm then under the handle above and clear of the table), press on the
 handle's top and drag it along the axis. Neither a hook nor a horizontal pinch fits there: the
 fingers (1.6 cm across) are as thick as the gap behind the bar, and the bar (8.9 cm) is longer than
@@ -25,7 +26,8 @@ import numpy as np
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import Joint, joint_for
-from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS
+from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
+from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS, PART_TOPS
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
@@ -38,6 +40,10 @@ ABOVE_M = 0.06
 # stands in front of a bottom drawer (libero_10-03's wine rack stopped a level wrist in 6 of 10 trials).
 CLOSE_TILT_RAD = 0.8
 PALM_HALF_M = HAND_PARTS[2][1]  # half the palm's length along the closing axis
+PALM_HALF_WIDTH_M = HAND_PARTS[2][2]  # half the palm's width across the closing axis
+# The palm's near and far ends behind the grip site, along the hand's pointing direction.
+PALM_NEAR_M, PALM_FAR_M = -HAND_PARTS[2][3], PART_TOPS[2]
+PALM_MARGIN_M = 0.01  # what stands this close beside the palm counts as under it
 FINGERTIP_M = 0.012  # the closed fingertips reach this far past the grip site
 PRESS_M = 0.03  # dragging, the grip site's goal this far below where it is: the fingertips press on the handle
 PRESS_STEPS = 6
@@ -73,8 +79,29 @@ def handle_point(world: World, joint: Joint) -> np.ndarray:
 
 def pinch_fits(world: World, joint: Joint) -> bool:
     """Whether the hand can pinch the handle with its fingers closing vertically: the palm, as long
-    as the closing axis, then reaches below the handle by half its length."""
-    return float(handle_point(world, joint)[2]) - PALM_HALF_M > world.table_z
+    as the closing axis, then reaches below the handle by half its length, over the table and over
+    whatever stands under it in front of the drawer (a plate's rim the palm would rest on and slide
+    along: libero_goal-00's half-open middle drawer, the grip then off the handle's middle)."""
+    return float(handle_point(world, joint)[2]) - PALM_HALF_M > floor_under_palm(world, joint)
+
+
+def floor_under_palm(world: World, joint: Joint) -> float:
+    """The highest top, the table's or an obstacle's, under where the palm is while pinching the
+    handle: in front of the handle from the palm's near to its far end, as wide as the palm."""
+    axis = open_direction(world, joint)
+    lo, hi = handle_box(world, joint)
+    handle = (lo + hi) / 2
+    outer = float(hi @ np.maximum(axis, 0) + lo @ np.minimum(axis, 0))  # the handle's face farthest out
+    across = np.cross(axis, [0.0, 0.0, 1.0])
+    boxes = obstacle_boxes(world, ())
+    mid = (boxes[:, 0] + boxes[:, 1]) / 2
+    half = (boxes[:, 1] - boxes[:, 0]) / 2
+    along_c, along_r = mid @ axis - outer, half @ np.abs(axis)
+    across_c, across_r = (mid - handle) @ across, half @ np.abs(across)
+    span = PALM_HALF_WIDTH_M + PALM_MARGIN_M  # the pinch is at the handle's middle
+    under = (along_c + along_r > PALM_NEAR_M) & (along_c - along_r < PALM_FAR_M) & (np.abs(across_c) < span + across_r)
+    under &= boxes[:, 1, 2] < handle[2]  # below the handle, not what the palm passes beside
+    return max(world.table_z, float(boxes[under, 1, 2].max(initial=-np.inf)))
 
 
 def face_handle(
