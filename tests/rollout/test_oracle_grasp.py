@@ -19,20 +19,17 @@ from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import (
     MAX_PINCH_M,
     SOLID_TOP_M,
-    SWAY_M,
-    SWAY_STEPS,
     Grasp,
     above,
-    close_on_wall,
     foot_grasp,
     narrowest,
-    pick,
     plan_grasp,
     side_entry,
     solid_below,
     top_face_up,
 )
 from vpro_assets.rollout.policies.oracle.hand import WITH_WRIST, reach_height
+from vpro_assets.rollout.policies.oracle.pick import SWAY_M, SWAY_STEPS, close_on_wall, pick
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.policy import OraclePolicy, libero_holds
 from vpro_assets.rollout.policies.oracle.world import World
@@ -335,7 +332,7 @@ def test_bowl_on_the_stove_near_the_arms_base_pinched_after_the_sway():
         "libero_10-02/target_geometry_variation/asymmetric-s3-v1",  # a shell of pieces: taken by its handle
         # the bowl displaced 0.88 m from the arm's base: its wall pinched within reach (`grasp.within_reach`)
         "libero_spatial-04/task_relevant_distractors/familiar_position-v1",
-        # an inverted bowl in the drawer 0.76 m out: approached at half speed, closed at rest (`grasp.settle`)
+        # an inverted bowl in the drawer 0.76 m out: approached at half speed, closed at rest (`pick.settle`)
         "libero_spatial-04/task_precondition_variation/object_pose-v1",
     ],
 )

@@ -10,7 +10,8 @@ from conftest import build_scene_case
 
 from vpro_assets.rollout.policies.oracle import nudge
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
-from vpro_assets.rollout.policies.oracle.grasp import hand_stop, narrow_top, pick, plan_grasp
+from vpro_assets.rollout.policies.oracle.grasp import hand_stop, narrow_top, plan_grasp
+from vpro_assets.rollout.policies.oracle.pick import pick
 
 PUT_IN = "pick_place(in akita_black_bowl_1 white_cabinet_1_bottom_region)"
 CLOSE = "drawer(close white_cabinet_1_bottom_region)"

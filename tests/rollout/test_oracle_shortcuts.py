@@ -21,7 +21,8 @@ from vpro_assets.rollout.contacts import ContactTracker
 from vpro_assets.rollout.episode import EpisodeSession, EpisodeSettings
 from vpro_assets.rollout.policies.oracle import clearance, nudge, push
 from vpro_assets.rollout.policies.oracle.clearance import PIECE_M, obstacle_boxes
-from vpro_assets.rollout.policies.oracle.grasp import hand_stop, narrow_top, pick, plan_grasp
+from vpro_assets.rollout.policies.oracle.grasp import hand_stop, narrow_top, plan_grasp
+from vpro_assets.rollout.policies.oracle.pick import pick
 from vpro_assets.rollout.policies.oracle.policy import OraclePolicy
 
 

@@ -19,9 +19,10 @@ import numpy as np
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
-from vpro_assets.rollout.policies.oracle.grasp import handle, pick
+from vpro_assets.rollout.policies.oracle.grasp import handle
 from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
+from vpro_assets.rollout.policies.oracle.pick import pick
 from vpro_assets.rollout.policies.oracle.pick_place import carry
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 

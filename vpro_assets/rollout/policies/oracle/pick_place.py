@@ -22,8 +22,9 @@ from vpro_assets.rollout.policies.oracle import motion, nudge
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
-from vpro_assets.rollout.policies.oracle.grasp import pick, plan_grasp
+from vpro_assets.rollout.policies.oracle.grasp import plan_grasp
 from vpro_assets.rollout.policies.oracle.motion import OPEN, Actions
+from vpro_assets.rollout.policies.oracle.pick import pick
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 CLEAR_M = 0.04  # the held object's bottom this far above every obstacle on the way
