@@ -24,7 +24,10 @@ still moves, e.g. a deformed target rocking on an uneven base). The state is acc
 - every part the variant's joints set moves when pushed gently toward the middle of its range
   (`jammed_parts`: a drawer drawn a few millimetres into LIBERO's closed range can run under its
   cabinet's base plate, where MuJoCo holds the overlap with kilonewtons: libero_10-03's bottom
-  drawer, which no policy could then open).
+  drawer, which no policy could then open), and
+- every object the variant places comes up under a gentle pull (`stuck_objects`: a deformed bowl
+  dropped from LIBERO's height through libero_spatial-07's stove's 1 mm top plate rested locked
+  under it).
 A rejected draw is redrawn (next attempt) up to MAX_ATTEMPTS times; then InitStateError names the
 case, the trial and the reasons. An object that keeps its LIBERO place first keeps LIBERO's height;
 from the second attempt on it is lowered onto whatever is below it instead: LIBERO's rows hold some
@@ -58,6 +61,10 @@ EXTRA_SETTLE = 3  # seconds of further settling for objects still moving after t
 PROBE_FORCE = 20.0  # N on a slide joint, N m on a hinge
 PROBE_STEPS = 10  # control steps: half a second
 PROBE_SLIDE_M, PROBE_HINGE_RAD = 0.002, 0.035
+# A placed object must come up under a gentle pull (`stuck_objects`): PULL_WEIGHTS times the weight of
+# all the scene's movable objects (so a stack on it comes too) raises it at least PULL_RISE_M in
+# PROBE_STEPS.
+PULL_WEIGHTS, PULL_RISE_M = 2.0, 0.002
 CUT_TOL_M = 0.0001  # a part may touch its fixture; deeper than this it cuts into it
 MAX_DRAWS = 200  # position draws per placement and attempt
 SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
@@ -347,6 +354,32 @@ def jammed_parts(env, variant: SceneVariant, state: np.ndarray) -> list[str]:
     return out
 
 
+def stuck_objects(env, variant: SceneVariant, state: np.ndarray) -> list[str]:
+    """The objects the variant places that do not come up, from `state`, under a gentle pull
+    (PULL_WEIGHTS times the weight of every movable object, upward at the object's body, PROBE_STEPS
+    zero-action steps): a deformed bowl kept at LIBERO's height, 8 cm over libero_spatial-07's
+    stove, fell through the stove's 1 mm top plate (MuJoCo's convex collision of its thin hull
+    pieces) and rested locked under it, on the stove's base: 30 N, 550 times its weight, raised it
+    2 mm, and no gripper took it off. The next attempt lowers it onto the plate."""
+    raw = sim.raw(env)
+    model, data = raw.sim.model._model, raw.sim.data._data
+    movable = [raw.sim.model.body_name2id(o.root_body) for o in raw.objects_dict.values() if o.joints]
+    pull = PULL_WEIGHTS * float(-model.opt.gravity[2]) * float(sum(model.body_subtreemass[b] for b in movable))
+    out = []
+    for p in variant.placements:
+        body = raw.sim.model.body_name2id(raw.objects_dict[p.instance].root_body)
+        sim.load_state(env, state)
+        start = float(data.xpos[body][2])
+        data.xfrc_applied[body, 2] = pull
+        sim.settle(env, PROBE_STEPS)
+        data.xfrc_applied[body, 2] = 0.0
+        rose = float(data.xpos[body][2]) - start
+        if rose < PULL_RISE_M:
+            out.append(f"{p.instance} is held by what it stands on (rose {rose * 1000:.2f} mm under {pull:.2f} N)")
+    sim.load_state(env, state)
+    return out
+
+
 def trial_state(
     env,
     variant: SceneVariant,
@@ -394,6 +427,8 @@ def trial_state(
             problems = [f"after storing: {p}" for p in drift(env)]
             if not problems:
                 problems = jammed_parts(env, variant, state)
+            if not problems:
+                problems = stuck_objects(env, variant, state)
             if not problems:
                 return state
         reasons.append(f"attempt {attempt}: " + "; ".join(problems[:4]))
