@@ -47,6 +47,7 @@ from generators.fixture_goal import CLOSE_RADII, acted_on, anchor_xy, fixture_go
 from vpro_assets.core.errors import GeneratorError
 from vpro_assets.scene.bddl_doc import Region
 from vpro_assets.scene.context import GenContext
+from vpro_assets.scene.init_gen import stuck_revision
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.recolor import recolored_object
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
@@ -159,7 +160,7 @@ def _on_table(ctx: GenContext, instance: str) -> bool:
     return abs(low - ctx.base.surface_z) < ON_TABLE_TOL
 
 
-@register("task_relevant_distractors/familiar_position", version=2)
+@register("task_relevant_distractors/familiar_position", version=2, revision=stuck_revision)
 def familiar_position(ctx: GenContext) -> SceneVariant:
     """A same-category object takes the target's familiar position; the target moves nearby."""
     if fixture_goal(ctx):

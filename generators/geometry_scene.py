@@ -50,6 +50,7 @@ from vpro_assets.core import paths
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.objects import deformed as tg
 from vpro_assets.scene.context import GenContext
+from vpro_assets.scene.init_gen import stuck_revision
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.receptacle import Clearance, clearance, object_size, resting_size
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
@@ -84,6 +85,12 @@ def fits_receptacle(case: dict) -> bool:
 
 def fit_revision(case: dict) -> str:
     return FIT_REVISION if fits_receptacle(case) else ""
+
+
+def revision(case: dict) -> str:
+    """The case's revisions: FIT_REVISION for a target fitted to an enclosed receptacle,
+    STUCK_REVISION (`init_gen`) for one standing on a thin plate."""
+    return " ".join(r for r in (fit_revision(case), stuck_revision(case)) if r)
 
 
 def allowed(room: Clearance, original: Size) -> Size:
@@ -174,6 +181,6 @@ def _make(deformation: str, severity: int):
 
 for _deformation, (_param, _amounts) in tx.GEOMETRY_SEVERITY.items():
     for _severity in range(1, len(_amounts) + 1):
-        register(f"target_geometry_variation/{_deformation}-s{_severity}", revision=fit_revision)(
+        register(f"target_geometry_variation/{_deformation}-s{_severity}", revision=revision)(
             _make(_deformation, _severity)
         )

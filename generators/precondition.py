@@ -19,14 +19,17 @@
   LIBERO position of the trial, lowered onto the table and settled, so it rests in another
   stable pose. Where the turned target would touch a neighbour there (an inverted bowl's rim on
   a plate's rim tips it over and rolls it away), it starts at a spot nearby clear by 5 mm, if
-  there is one (v2). Variant `lying`: turned 90 degrees about the world x axis instead, so it
-  rests on its side. The BDDL is the base task's (LIBERO's regions hold no orientation): the
+  there is one (v2); one that came down over the object it stood on (libero_spatial-05's bowl
+  over the ramekin) is drawn again beside it (revision enclose1). Variant `lying`:
+  turned 90 degrees about the world x axis instead, so it rests on its side. The BDDL is the base task's (LIBERO's regions hold no orientation): the
   frozen initial states carry the pose.
 """
 
 from __future__ import annotations
 
+from vpro_assets.libero.tasks import get_task
 from vpro_assets.scene.context import GenContext
+from vpro_assets.scene.init_gen import target_support
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.pose import LIE
 from vpro_assets.scene.variant import JointSetting, KeepClear, Placement, SceneVariant
@@ -191,7 +194,18 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
     )
 
 
-@register("task_precondition_variation/object_pose", version=2)
+# Revision ENCLOSE_REVISION: a target turned upside down that came down over the object it stood on
+# (libero_spatial-05's bowl over the ramekin, wedged) is drawn again beside it (`init_gen._enclosing`).
+# Only a target LIBERO stands on an object can; those cases are built again, the others keep theirs.
+ENCLOSE_REVISION = "enclose1"
+
+
+def enclose_revision(case: dict) -> str:
+    task = get_task(case["task"])
+    return ENCLOSE_REVISION if target_support(case) in {inst for inst, _ in task.objects} else ""
+
+
+@register("task_precondition_variation/object_pose", version=2, revision=enclose_revision)
 def object_pose(ctx: GenContext) -> SceneVariant:
     """The target starts upside down (or lying on its side) at its usual place (or next to it,
     clear of its neighbours)."""

@@ -4,6 +4,7 @@ that failed the first full build because the rules had no answer for them."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import scene_variant, start_trial, variant_env
 
 from vpro_assets.scene.base_scene import base_scene
@@ -133,3 +134,62 @@ def test_a_drawer_set_closed_never_starts_jammed_in_its_cabinet(tmp_path):
         assert init_gen.jammed_parts(env, v, sim.flattened_state(env)) == [
             f"{joint.joint} is jammed (moved 0.00 mm under 20 N or N m)"
         ]
+
+
+@pytest.mark.slow
+def test_a_deformed_target_never_starts_locked_under_a_thin_support(tmp_path):
+    """libero_spatial-07 taper-s1 trial 0: LIBERO's row holds the bowl 8 cm over the stove, and
+    kept at that height (the first attempt) the tapered bowl fell through the stove's 1 mm top
+    plate (its top at 0.9305 m) and rested locked under it on the stove's base (a 30 N pull raised
+    it 2 mm; no gripper lifted it). The accepted start rests on the plate and comes up under the
+    gentle pull (`stuck_objects`); put back under the plate, the pull finds it held. The scene is
+    built first (its deformed bowl registered)."""
+    from conftest import build_scene_case
+
+    from vpro_assets.scene import build, init_gen, sim
+
+    cid = "libero_spatial-07/target_geometry_variation/taper-s1-v1"
+    build_scene_case(cid)
+    build.built_case(cid)  # registers its deformed bowl with LIBERO
+    with variant_env(cid, tmp_path) as (ctx, v, env):
+        start_trial(env, ctx, v, 0)
+        bowl = ctx.task.target
+        assert sim.body_layout(env)[bowl]["lo"][2] > 0.9295  # on the plate, not through it
+        assert init_gen.stuck_objects(env, [bowl], sim.flattened_state(env)) == []
+        data = sim.raw(env).sim.data
+        joint = sim.raw(env).objects_dict[bowl].joints[-1]
+        qpos = np.array(data.get_joint_qpos(joint))
+        qpos[2] -= sim.body_layout(env)[bowl]["lo"][2] - 0.925  # its foot on the base, under the plate
+        data.set_joint_qpos(joint, qpos)
+        sim.raw(env).sim.forward()
+        sim.settle(env)
+        (held,) = init_gen.stuck_objects(env, [bowl], sim.flattened_state(env))
+        assert held.startswith(f"{bowl} is held by what it stands on")
+
+
+def test_an_inverted_bowl_never_starts_over_the_ramekin_it_stood_on(tmp_path):
+    """libero_spatial-05 object_pose (revision enclose1): LIBERO's bowl stands on the ramekin, and
+    turned upside down there it came down over it; the ramekin stayed wedged in the bowl's hull
+    pieces (a 1 N pull lifted both, 3 N did not part them), so no trial could put the bowl on the
+    plate (0 of 10 certified). That start is drawn again (`_enclosing`) with the bowl upside down
+    on the table beside the ramekin, their footprints apart. libero_spatial-03's bowl, upside down
+    on the cookie box it spans, still rests on top of the box."""
+    from vpro_assets.scene import sim
+
+    def bowl_frame_zz(env, bowl):
+        raw = sim.raw(env)
+        return raw.sim.data.body_xmat[raw.sim.model.body_name2id(raw.objects_dict[bowl].root_body)][8]
+
+    with variant_env("libero_spatial-05/task_precondition_variation/object_pose-v1", tmp_path) as (ctx, v, env):
+        bowl = ctx.task.target
+        for trial in (0, 1):
+            start_trial(env, ctx, v, trial)
+            b, r = (sim.body_layout(env)[n] for n in (bowl, "glazed_rim_porcelain_ramekin_1"))
+            assert np.any(b["lo"][:2] > r["hi"][:2]) or np.any(r["lo"][:2] > b["hi"][:2]), (trial, b, r)
+            assert bowl_frame_zz(env, bowl) < -0.95, trial  # still upside down
+    with variant_env("libero_spatial-03/task_precondition_variation/object_pose-v1", tmp_path) as (ctx, v, env):
+        bowl = ctx.task.target
+        start_trial(env, ctx, v, 0)
+        b, box = (sim.body_layout(env)[n] for n in (bowl, "cookies_1"))
+        assert b["lo"][2] > box["hi"][2] - 0.005  # on top of the box
+        assert bowl_frame_zz(env, bowl) < -0.95

@@ -24,7 +24,12 @@ still moves, e.g. a deformed target rocking on an uneven base). The state is acc
 - every part the variant's joints set moves when pushed gently toward the middle of its range
   (`jammed_parts`: a drawer drawn a few millimetres into LIBERO's closed range can run under its
   cabinet's base plate, where MuJoCo holds the overlap with kilonewtons: libero_10-03's bottom
-  drawer, which no policy could then open).
+  drawer, which no policy could then open), and
+- every object the variant places comes up under a gentle pull (`stuck_objects`: a deformed bowl
+  dropped from LIBERO's height through libero_spatial-07's stove's 1 mm top plate rested locked
+  under it), and
+- no object turned upside down came down over an object within its footprint (`_enclosing`:
+  libero_spatial-05's bowl over the ramekin it stood on); the next attempts stand it beside it.
 A rejected draw is redrawn (next attempt) up to MAX_ATTEMPTS times; then InitStateError names the
 case, the trial and the reasons. An object that keeps its LIBERO place first keeps LIBERO's height;
 from the second attempt on it is lowered onto whatever is below it instead: LIBERO's rows hold some
@@ -37,6 +42,7 @@ through the mug in front of it) is slid out of that part.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 
@@ -46,7 +52,9 @@ import numpy as np
 from vpro_assets.core import seeding
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.mjgeom import quat_mul, subtree
-from vpro_assets.scene import sim, travel
+from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.tasks import get_task
+from vpro_assets.scene import bddl_doc, sim, travel
 from vpro_assets.scene.pose import INVERT, class_quat
 from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
 
@@ -58,6 +66,18 @@ EXTRA_SETTLE = 3  # seconds of further settling for objects still moving after t
 PROBE_FORCE = 20.0  # N on a slide joint, N m on a hinge
 PROBE_STEPS = 10  # control steps: half a second
 PROBE_SLIDE_M, PROBE_HINGE_RAD = 0.002, 0.035
+# A placed object must come up under a gentle pull (`stuck_objects`): PULL_WEIGHTS times the weight of
+# all the scene's movable objects (so a stack on it comes too) raises it at least PULL_RISE_M within
+# PROBE_STEPS.
+PULL_WEIGHTS, PULL_RISE_M = 2.0, 0.002
+# Revision STUCK_REVISION of the generators that place an object where the task's target stands
+# (`stuck_revision`): `stuck_objects` came after the scene cases were first built, and a scan of
+# every built case's stored starts (what `vpro validate` checks) found it rejecting starts only where
+# that object stands on libero_spatial-07's stove, through whose 1 mm top plate it had fallen: the
+# deformed bowls of taper-s1/-s2/-s3, asymmetric-s1/-s3 and multipeak-s3, and familiar_position's
+# ramekin in the bowl's place. Those generators' cases of a target on a thin plate are built again.
+STUCK_REVISION = "stuck1"
+THIN_PLATE_REGIONS = ("flat_stove_1_cook_region",)
 CUT_TOL_M = 0.0001  # a part may touch its fixture; deeper than this it cuts into it
 MAX_DRAWS = 200  # position draws per placement and attempt
 SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
@@ -113,11 +133,16 @@ def _place(
     added: set[str],
     base_layout: dict,
     onto_support: bool = False,
+    beside_covered: bool = False,
+    lower_taken: bool = False,
 ) -> None:
     """Apply the variant's placements to the loaded state (positions, poses, heights). An object
     that keeps its LIBERO place (a turned or replaced target) keeps its lowest point where LIBERO's
     object had it (on the table, in a drawer), or with `onto_support` rests on what is below it;
-    a moved or added one goes onto the table surface."""
+    a moved or added one goes onto the table surface. `beside_covered`: an inverted object that
+    came down over what it stood on (`_enclosing`) stands beside it instead; `lower_taken`: one that
+    takes another's place rests on what is below it (`stuck_objects`: libero_spatial-07's ramekin in
+    the bowl's place on the stove, dropped from the bowl's height, fell through the stove's top plate)."""
     data = sim.raw(env).sim.data
     raw = sim.raw(env)
     layout = sim.body_layout(env)
@@ -143,7 +168,7 @@ def _place(
         offset = centre - qpos[:2]  # the object's origin need not be its footprint's centre
         others = {k: v for k, v in now.items() if k != p.instance and k not in pending}
         if p.keep_xy:
-            xy = _kept_spot(p, qpos[:2].copy(), rng, centre, offset, radius, others, base_layout)
+            xy = _kept_spot(p, qpos[:2].copy(), rng, own, offset, radius, others, base_layout, beside_covered)
         elif p.take_place_of:
             was = base_layout[p.take_place_of]
             xy = (was["lo"][:2] + was["hi"][:2]) / 2 - offset  # footprint centre on the other's
@@ -157,6 +182,11 @@ def _place(
         lo = sim.body_layout(env)[p.instance]["lo"][2]
         if p.take_place_of:
             floor = float(base_layout[p.take_place_of]["lo"][2])
+            if lower_taken:  # from the other's height down onto what is below it there
+                qpos[2] += floor - lo
+                data.set_joint_qpos(joint, qpos)
+                raw.sim.forward()
+                lo, floor = floor, _top_below(env, p.instance, floor)
         elif p.keep_xy and p.instance in base_layout:
             floor = float(base_layout[p.instance]["lo"][2])
             if onto_support:
@@ -268,28 +298,64 @@ def _kept_spot(
     p: Placement,
     xy: np.ndarray,
     rng: np.random.Generator,
-    centre: np.ndarray,
+    own: dict,
     offset: np.ndarray,
     radius: float,
     others: dict[str, dict],
     base_layout: dict,
+    beside_covered: bool = False,
 ) -> np.ndarray:
     """LIBERO's xy of the trial for an object that keeps its place, or (`clear_of_neighbours`)
-    a clear spot nearby where it would touch a neighbour there."""
+    a clear spot nearby where it would touch a neighbour there (with `beside_covered`, the object
+    it stands on and covers upside down counts as one)."""
     if not (p.clear_of_neighbours and p.instance in base_layout):
         return xy
-    # What it stands on (a ramekin, a drawer, a rack) does not count: it stays there.
+    centre = (own["lo"][:2] + own["hi"][:2]) / 2
+    # What it stands on (a drawer, a rack, a cookie box) does not count: it stays there.
     floor = base_layout[p.instance]["lo"][2] + SUPPORT_TOL
+    covered = [v for v in others.values() if beside_covered and p.invert and v["kind"] == "object" and _covered(v, own)]
     neighbours = [
         (v["lo"], v["hi"])
         for v in others.values()
         if v["hi"][2] > floor and (v["kind"] == "object" or _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0))
-    ]
+    ] + [(v["lo"], v["hi"]) for v in covered]
+    if covered:  # the ring starts where the footprint clears what it would cover
+        reach = max(float(np.max(v["hi"][:2] - v["lo"][:2])) for v in covered) / 2 + radius + p.margin
+        p = dataclasses.replace(p, r_min=reach, r_max=reach + p.r_max)
     if not _clear(centre, radius, neighbours, p.margin):
         # No room nearby in a crowded layout: LIBERO's spot, if it settles.
         with contextlib.suppress(InitStateError):
             xy = _ring_spot(p, xy, rng, offset, radius, neighbours)
     return xy
+
+
+def _covered(box: dict, own: dict) -> bool:
+    """Whether an object's footprint lies within `own` footprint."""
+    return bool(np.all(box["lo"][:2] >= own["lo"][:2]) and np.all(box["hi"][:2] <= own["hi"][:2]))
+
+
+def _enclosing(env, variant: SceneVariant) -> list[str]:
+    """Inverted objects that came down over an object within their footprint (its top more than
+    SUPPORT_TOL above their lowest point). An inverted bowl set on the ramekin of libero_spatial-05
+    (LIBERO's "black bowl on the ramekin") came down over it, and the ramekin stayed wedged in its
+    hull pieces: a 1 N pull lifted both, 3 N did not part them, and on the plate the bowl rested on
+    the ramekin, so the goal could not be met. The next attempts stand it beside what it covered
+    (revision ENCLOSE_REVISION of the object_pose generator). One resting on top of a box it spans
+    (libero_spatial-03's bowl on the cookie box) is not enclosing."""
+    layout = sim.body_layout(env)
+    out = []
+    for p in variant.placements:
+        own = layout[p.instance]
+        out += [
+            f"{p.instance} came down over {name}"
+            for name, v in layout.items()
+            if p.invert
+            and name != p.instance
+            and v["kind"] == "object"
+            and v["hi"][2] > own["lo"][2] + SUPPORT_TOL
+            and _covered(v, own)
+        ]
+    return out
 
 
 def _problems(env, success: bool) -> list[str]:
@@ -347,6 +413,58 @@ def jammed_parts(env, variant: SceneVariant, state: np.ndarray) -> list[str]:
     return out
 
 
+def stuck_objects(env, instances: list[str], state: np.ndarray) -> list[str]:
+    """The objects of `instances` that do not come up, from `state`, under a gentle pull: each
+    pulled upward at its body, all at once, with PULL_WEIGHTS times the weight of every movable
+    object (so a stack on it comes too) for PROBE_STEPS zero-action steps. A deformed bowl kept at
+    LIBERO's height, 8 cm over libero_spatial-07's stove, fell through the stove's 1 mm top plate
+    (MuJoCo's convex collision of its thin hull pieces) and rested locked under it, on the stove's
+    base: 30 N, 550 times its weight, raised it 2 mm, and no gripper took it off. `vpro validate`
+    asks the same of every movable object of every stored start."""
+    raw = sim.raw(env)
+    model, data = raw.sim.model._model, raw.sim.data._data
+    movable = [raw.sim.model.body_name2id(o.root_body) for o in raw.objects_dict.values() if o.joints]
+    pull = PULL_WEIGHTS * float(-model.opt.gravity[2]) * float(sum(model.body_subtreemass[b] for b in movable))
+    bodies = {name: raw.sim.model.body_name2id(raw.objects_dict[name].root_body) for name in instances}
+    if not bodies:
+        return []
+    sim.load_state(env, state)
+    start = {name: float(data.xpos[b][2]) for name, b in bodies.items()}
+    risen = dict.fromkeys(bodies, -math.inf)
+    for _ in range(PROBE_STEPS):
+        for b in bodies.values():
+            data.xfrc_applied[b, 2] = pull
+        sim.settle(env, 1)
+        # The highest it came: one pulled free can hit what is above it and end lower (libero_goal-03's
+        # bowl under the drawer set open over it rose 8 cm in a step and then fell into the drawer).
+        risen = {name: max(risen[name], float(data.xpos[b][2]) - start[name]) for name, b in bodies.items()}
+        if all(rose >= PULL_RISE_M for rose in risen.values()):
+            break
+    data.xfrc_applied[:] = 0.0
+    sim.load_state(env, state)
+    return [
+        f"{name} is held by what it stands on (rose {rose * 1000:.2f} mm under {pull:.2f} N)"
+        for name, rose in risen.items()
+        if rose < PULL_RISE_M
+    ]
+
+
+def target_support(case: dict) -> str | None:
+    """What the case's task stands its target on in LIBERO's BDDL (`(On target X)`: an object
+    instance or a region), None where the init states none."""
+    task = get_task(case["task"])
+    for pred in bddl_doc.read_base(libero_bridge.bddl_path(task.suite, task.name)).init:
+        words = pred.strip("()").split()
+        if len(words) == 3 and words[0] == "On" and words[1] == task.target:
+            return words[2]
+    return None
+
+
+def stuck_revision(case: dict) -> str:
+    """STUCK_REVISION where the case's task stands its target on a thin plate, else ""."""
+    return STUCK_REVISION if target_support(case) in THIN_PLATE_REGIONS else ""
+
+
 def trial_state(
     env,
     variant: SceneVariant,
@@ -361,6 +479,7 @@ def trial_state(
     `fixture_seed`: the trial's seed, which places the fixtures as the rollout will."""
     added = set(variant.added)
     reasons: list[str] = []
+    beside_covered = lower_taken = False  # what earlier attempts of the trial found (`_place`)
     for attempt in range(MAX_ATTEMPTS):
         rng = seeding.rng(variant.case_id, trial, f"scene-init-{attempt}")
         sim.place_fixtures(env, fixture_seed)
@@ -371,7 +490,16 @@ def trial_state(
             for js in variant.joints:
                 _draw_joint(env, js, rng)
             raw.sim.forward()
-            _place(env, variant, rng, added, base_layout or {}, onto_support=attempt > 0)
+            _place(
+                env,
+                variant,
+                rng,
+                added,
+                base_layout or {},
+                onto_support=attempt > 0,
+                beside_covered=beside_covered,
+                lower_taken=lower_taken,
+            )
             # Its own stream, so the draws of the variants without it stay as they were.
             travel.keep_clear_of_travel(env, variant, seeding.rng(variant.case_id, trial, f"scene-travel-{attempt}"))
         except (InitStateError, travel.NoClearSpot) as exc:
@@ -387,13 +515,18 @@ def trial_state(
             if not sim.moving_objects(env):
                 break
             sim.settle(env)
-        problems = _problems(env, bool(raw._check_success())) + travel.disturbed(env, variant, placed)
+        enclosing = _enclosing(env, variant)
+        beside_covered = beside_covered or bool(enclosing)
+        problems = _problems(env, bool(raw._check_success())) + travel.disturbed(env, variant, placed) + enclosing
         if not problems:
             state = sim.flattened_state(env)
             sim.load_state(env, state)
             problems = [f"after storing: {p}" for p in drift(env)]
             if not problems:
                 problems = jammed_parts(env, variant, state)
+            if not problems:
+                problems = stuck_objects(env, [p.instance for p in variant.placements], state)
+                lower_taken = lower_taken or bool(problems)
             if not problems:
                 return state
         reasons.append(f"attempt {attempt}: " + "; ".join(problems[:4]))

@@ -4,7 +4,8 @@ For each case: the BDDL parses with LIBERO's parser and keeps the task's languag
 generated object's MJCF compiles alone; LIBERO builds the env from the BDDL; the scene's MJCF
 (`sim.model.get_xml()`) compiles again in MuJoCo with no warning; every frozen initial state has
 the model's width and loads; visual-only additions have no geom that can collide; and one second of zero actions from each leaves every object at rest
-(moved less than 1 cm, slower than 2 cm/s) with no MuJoCo warning raised while stepping.
+(moved less than 1 cm, slower than 2 cm/s) with no MuJoCo warning raised while stepping, and every
+movable object comes up under a gentle pull (none starts locked: `init_gen.stuck_objects`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from vpro_assets.libero.tasks import get_task
 from vpro_assets.scene import bddl_doc, sim
 from vpro_assets.scene.build import _worker_init as build_worker_init
 from vpro_assets.scene.build import built_case
-from vpro_assets.scene.init_gen import drift
+from vpro_assets.scene.init_gen import drift, stuck_objects
 
 log = logging.getLogger(__name__)
 
@@ -143,6 +144,7 @@ def _state_problems(env, case: dict, found: dict) -> list[str]:
     npz = np.load(found["init_states_npz"])["states"]
     if not np.array_equal(states, npz):
         problems.append("the .pruned_init and .npz initial states differ")
+    movable = [name for name, obj in sim.raw(env).objects_dict.items() if obj.joints]
     width = 1 + m.nq + m.nv
     if states.shape != (len(case["trial_seeds"]), width):
         problems.append(f"initial states have shape {states.shape}, expected ({len(case['trial_seeds'])}, {width})")
@@ -158,6 +160,7 @@ def _state_problems(env, case: dict, found: dict) -> list[str]:
             problems.append(f"initial state {k}: MuJoCo warnings while stepping: {', '.join(warnings)}")
         if sim.raw(env)._check_success():
             problems.append(f"initial state {k}: the goal is already satisfied")
+        problems += [f"initial state {k}: {p}" for p in stuck_objects(env, movable, row)]
     return problems
 
 
