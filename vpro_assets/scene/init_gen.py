@@ -344,13 +344,12 @@ def _enclosing(env, variant: SceneVariant) -> list[str]:
     (libero_spatial-03's bowl on the cookie box) is not enclosing."""
     layout = sim.body_layout(env)
     out = []
-    for p in variant.placements:
+    for p in (p for p in variant.placements if p.invert):
         own = layout[p.instance]
         out += [
             f"{p.instance} came down over {name}"
             for name, v in layout.items()
-            if p.invert
-            and name != p.instance
+            if name != p.instance
             and v["kind"] == "object"
             and v["hi"][2] > own["lo"][2] + SUPPORT_TOL
             and _covered(v, own)
