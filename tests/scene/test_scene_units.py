@@ -203,11 +203,14 @@ def test_clean_partial_removes_only_folders_of_dead_writers(tmp_path, monkeypatc
     assert left == [f"objects/.tmp-vpro_thing-{alive}", f"scene/.tmp-a__b__d-{alive}"]
 
 
-def test_validation_reports_a_written_back_mjcf_that_does_not_compile_or_warns():
+def test_validation_reports_a_written_back_mjcf_that_does_not_compile_or_warns(tmp_path, monkeypatch):
     """`vpro validate` compiles the scene's written-back MJCF once its env is closed, from the text:
     a text that does not compile is a problem, so is one whose first forward pass warns (20 spheres
-    piled into each other with room for too few contacts), and a sound one is none."""
+    piled into each other with room for too few contacts), and a sound one is none. (MuJoCo logs
+    the warning to MUJOCO_LOG.TXT in the working directory: a temporary one, not the work tree.)"""
     from vpro_assets.scene.validate import _xml_problems
+
+    monkeypatch.chdir(tmp_path)
 
     pile = "".join(f'<body pos="0 0 {0.01 * i}"><freejoint/><geom size="0.1"/></body>' for i in range(20))
     sound = f"<mujoco><worldbody>{pile}</worldbody></mujoco>"
