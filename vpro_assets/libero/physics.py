@@ -12,6 +12,9 @@ control step without robosuite's repeated forward passes.
   exactly as on a fresh compile. The same BDDL gives the same MJCF, so the trials of a case and
   the reset after construction reuse one compile. These compiles leave the textures out
   (`physics_model`): no pixel is drawn, and they were two thirds of a scene model's memory.
+- `seeded_reset_in_place(env, seed)`: a trial's reset of such an env kept from an earlier episode
+  (`vpro_assets.rollout.case_env` decides), the hard reset's start bit for bit without its MJCF
+  rebuild, model copy and garbage collection.
 - Split substeps: robosuite's control step runs, in each of its 25 substeps, mj_forward, the
   controllers (whose `update` runs mj_forward again) and mj_step (a third forward inside): MuJoCo's
   position and velocity stages three times on the same state. The controllers read only those
@@ -232,7 +235,7 @@ def seeded_reset_in_place(env, seed: int):
     """robosuite's hard reset (`MujocoEnv.reset` inside LIBERO's `ControlEnv.reset`, line for line)
     on the env's own model and data instead of a rebuilt MJCF and a fresh model copy: the same
     state as the hard reset, bit for bit, without its rebuild, model copy and garbage collection
-    (0.4-0.5 s of a render-free episode). What the rebuild would have renewed is renewed here:
+    (0.3-0.5 s of a render-free episode). What the rebuild would have renewed is renewed here:
     - the model: a fresh copy differs from this one only in the arrays resets and episodes write
       (`RESET_WRITTEN_FIELDS`), put back to their compiled values;
     - the data: a new MjData is a reset one (`mj_resetData`), forwarded once as `_initialize_sim` does;
@@ -241,7 +244,10 @@ def seeded_reset_in_place(env, seed: int):
       per RandomizationError retry as LIBERO's retry loads the model again;
     - robosuite's Python state (robots' initial pose and noise, new controllers, the gripper's
       format_action, timestep and done, observables) is renewed by `_reset_internal`, which both
-      resets run; the observables' sensors read `self.sim`, the same sim here.
+      resets run; the observables' sensors read `self.sim`, the same sim here. What the rebuild
+      renews and this reset keeps is read by nothing before it is written again: LIBERO's
+      placement samplers (stateless), its burner flags and their list of sites (site_rgba only,
+      set again from the knob's joint at the first step), MjData's scratch arrays.
     The trial's reset as `settled.seeded_reset` makes it (numpy's stream seeded first); returns the
     observation."""
     inner = getattr(env, "env", env)

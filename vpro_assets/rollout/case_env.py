@@ -88,8 +88,9 @@ def _phase_tracker(sim, task):
 
 
 # One built LIBERO env kept per process between episodes, as LIBERO's own evaluation scripts keep
-# one env per task and call reset() (a hard reset: the model is reloaded) before each trial. The
-# trajectories are bit-identical to those of a fresh env (checked by the backend-equality test).
+# one env per task and call reset() (a hard reset: the model is reloaded) before each trial; a
+# render-free one is reset in place (`env_for_case`). The trajectories are bit-identical to those of
+# a fresh env (the backend-equality test, tests/rollout/test_env_reuse.py).
 _ENV_CACHE: dict[tuple, Any] = {}
 
 
@@ -271,8 +272,9 @@ def env_for_case(
     env = _take_cached_env(key) if key is not None else None
     # The one place the reuse is decided: an env kept from an episode of the same BDDL, resolution
     # and render setting is reset again; a render-free one in place (`physics.seeded_reset_in_place`:
-    # the same start, bit for bit). A rendered env keeps robosuite's hard reset: the perturbation
-    # layer and LIBERO's burner sites write into its model for the pixels.
+    # the same start, bit for bit). A rendered env keeps robosuite's hard reset: it compiles outside
+    # the model cache, and what writes into its model for the pixels (LIBERO's burner sites, the
+    # perturbation layer) is not covered by the in-place reset's proof.
     in_place = env is not None and not render and physics.can_reset_in_place(env)
     try:
         if env is None:
