@@ -12,6 +12,9 @@ control step without robosuite's repeated forward passes.
   exactly as on a fresh compile. The same BDDL gives the same MJCF, so the trials of a case and
   the reset after construction reuse one compile. These compiles leave the textures out
   (`physics_model`): no pixel is drawn, and they were two thirds of a scene model's memory.
+- `seeded_reset_in_place(env, seed)`: a trial's reset of such an env kept from an earlier episode
+  (`vpro_assets.rollout.case_env` decides), the hard reset's start bit for bit without its MJCF
+  rebuild, model copy and garbage collection.
 - Split substeps: robosuite's control step runs, in each of its 25 substeps, mj_forward, the
   controllers (whose `update` runs mj_forward again) and mj_step (a third forward inside): MuJoCo's
   position and velocity stages three times on the same state. The controllers read only those
@@ -53,6 +56,7 @@ import numpy as np
 
 from vpro_assets.libero import arm_control
 from vpro_assets.libero import bridge as libero_bridge
+from vpro_assets.libero.settled import keep_property_samplers
 
 log = logging.getLogger(__name__)
 
@@ -203,9 +207,70 @@ def physics_env(bddl_file: str, fresh: bool = False, **kwargs):
     def initialize_sim(xml_string=None):
         with _compiles_through_cache():
             initialize(xml_string)
+        _keep_compiled_values(inner)
 
     inner._initialize_sim = initialize_sim  # robosuite's own code, its compile through the cache
     return split_steps(env)
+
+
+# The model arrays a reset or an episode writes: LIBERO's fixture placement (body_pos, body_quat)
+# and robosuite's site visualisation (site_rgba). Everything else in the model stays as compiled
+# (tests/rollout/test_env_reuse.py compares every model array after both resets).
+RESET_WRITTEN_FIELDS = ("body_pos", "body_quat", "site_rgba")
+
+
+def _keep_compiled_values(inner) -> None:
+    model = inner.sim.model._model
+    inner._vpro_compiled = {name: getattr(model, name).copy() for name in RESET_WRITTEN_FIELDS}
+
+
+def can_reset_in_place(env) -> bool:
+    """Whether `seeded_reset_in_place` can stand in for this env's hard reset: a render-free env of
+    `physics_env` with robosuite's hard reset, compiled through the cache at least once."""
+    inner = getattr(env, "env", env)
+    return _FAST[0] and inner.hard_reset and not inner.has_offscreen_renderer and hasattr(inner, "_vpro_compiled")
+
+
+def seeded_reset_in_place(env, seed: int):
+    """robosuite's hard reset (`MujocoEnv.reset` inside LIBERO's `ControlEnv.reset`, line for line)
+    on the env's own model and data instead of a rebuilt MJCF and a fresh model copy: the same
+    state as the hard reset, bit for bit, without its rebuild, model copy and garbage collection
+    (0.3-0.5 s of a render-free episode). What the rebuild would have renewed is renewed here:
+    - the model: a fresh copy differs from this one only in the arrays resets and episodes write
+      (`RESET_WRITTEN_FIELDS`), put back to their compiled values;
+    - the data: a new MjData is a reset one (`mj_resetData`), forwarded once as `_initialize_sim` does;
+    - LIBERO's articulation samplers: a hard reset's model load adds one copy of them
+      (`settled.keep_property_samplers`), so this reset keeps as many as after that load, one more
+      per RandomizationError retry as LIBERO's retry loads the model again;
+    - robosuite's Python state (robots' initial pose and noise, new controllers, the gripper's
+      format_action, timestep and done, observables) is renewed by `_reset_internal`, which both
+      resets run; the observables' sensors read `self.sim`, the same sim here. What the rebuild
+      renews and this reset keeps is read by nothing before it is written again: LIBERO's
+      placement samplers (stateless), its burner flags and their list of sites (site_rgba only,
+      set again from the knob's joint at the first step), MjData's scratch arrays.
+    The trial's reset as `settled.seeded_reset` makes it (numpy's stream seeded first); returns the
+    observation."""
+    inner = getattr(env, "env", env)
+    model, data = inner.sim.model._model, inner.sim.data._data
+    randomization_error = importlib.import_module("robosuite.utils.errors").RandomizationError
+    env.seed(int(seed))
+    copies = 2  # construction's load and this reset's
+    while True:
+        keep_property_samplers(env, copies)
+        for name, values in inner._vpro_compiled.items():
+            getattr(model, name)[:] = values
+        mujoco.mj_resetData(model, data)
+        inner.sim.forward()
+        inner.initialize_time(inner.control_freq)
+        try:
+            inner._reset_internal()
+            break
+        except randomization_error:
+            copies += 1
+    inner.sim.forward()
+    inner._obs_cache = {}
+    inner.visualize(vis_settings=dict.fromkeys(inner._visualizations, False))
+    return inner._get_observations(force_update=True)
 
 
 def split_steps(env):

@@ -88,8 +88,9 @@ def _phase_tracker(sim, task):
 
 
 # One built LIBERO env kept per process between episodes, as LIBERO's own evaluation scripts keep
-# one env per task and call reset() (a hard reset: the model is reloaded) before each trial. The
-# trajectories are bit-identical to those of a fresh env (checked by the backend-equality test).
+# one env per task and call reset() (a hard reset: the model is reloaded) before each trial; a
+# render-free one is reset in place (`env_for_case`). The trajectories are bit-identical to those of
+# a fresh env (the backend-equality test, tests/rollout/test_env_reuse.py).
 _ENV_CACHE: dict[tuple, Any] = {}
 
 
@@ -128,9 +129,11 @@ class CaseEnv:
         artifacts: dict | None = None,
         scene: dict | None = None,
         cache_key: tuple | None = None,
+        reset_in_place: bool = False,
     ):
         self.case, self.trial, self.env, self.wrapper = case, trial, env, wrapper
         self.cache_key = cache_key
+        self.reset_in_place = reset_in_place
         self.broken = False
         self.init_state = init_state
         self.artifact_hashes = artifacts or {}
@@ -149,7 +152,9 @@ class CaseEnv:
             # LIBERO example calls it too). Seeding it with the trial's seed, and resetting as a new
             # env's first reset does, makes the scene, and so every frame, a function of (case,
             # trial) whatever ran before in this process.
-            seeded_reset(self.env, int(self.case["trial_seeds"][self.trial]))
+            # A reused render-free env resets in place: the hard reset's state without its rebuild.
+            reset = physics.seeded_reset_in_place if self.reset_in_place else seeded_reset
+            reset(self.env, int(self.case["trial_seeds"][self.trial]))
             obs = self.env.set_init_state(self.init_state)
         except Exception as exc:
             self.broken = True
@@ -265,6 +270,12 @@ def env_for_case(
     hashes = {"bddl": sha256_file(bddl), "init_states": sha256_file(init_path), "init_row": row}
     key = (bddl, resolution, render, repr(sorted((env_kwargs or {}).items()))) if reuse else None
     env = _take_cached_env(key) if key is not None else None
+    # The one place the reuse is decided: an env kept from an episode of the same BDDL, resolution
+    # and render setting is reset again; a render-free one in place (`physics.seeded_reset_in_place`:
+    # the same start, bit for bit). A rendered env keeps robosuite's hard reset: it compiles outside
+    # the model cache, and what writes into its model for the pixels (LIBERO's burner sites, the
+    # perturbation layer) is not covered by the in-place reset's proof.
+    in_place = env is not None and not render and physics.can_reset_in_place(env)
     try:
         if env is None:
             env = make_env(
@@ -281,4 +292,4 @@ def env_for_case(
         except Exception:
             _close_quietly(env)
             raise
-    return CaseEnv(case, trial, env, states[row], wrapper, hashes, scene, cache_key=key)
+    return CaseEnv(case, trial, env, states[row], wrapper, hashes, scene, cache_key=key, reset_in_place=in_place)

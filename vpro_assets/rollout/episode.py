@@ -172,8 +172,12 @@ class EpisodeSession:
             "final_state": self.env.state_digest(),
         }
 
-    def close(self) -> None:
+    def close(self, failed: bool = False) -> None:
+        """Release the env: kept for the next episode of the same scene, unless this one `failed`
+        (raised: whatever state it left is not carried into the next trial)."""
         if self.cenv is not None:
+            if failed:
+                self.cenv.broken = True
             self.cenv.close()
             self.cenv = None
 
@@ -201,6 +205,7 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
     except Exception as exc:
         raise InfrastructureError(f"policy {_pid(policy)}: reset raised {type(exc).__name__}: {exc}") from exc
     frames: list[np.ndarray] = []
+    failed = True
     try:
         obs = session.start(on_reset=getattr(policy, "bind_env", None))
         plan: deque = deque()
@@ -225,9 +230,11 @@ def run_episode(case: dict, trial: int, policy, settings: EpisodeSettings) -> di
                 frames.append(_video_frame(obs, images))
             obs = session.step(plan.popleft())
         video = _write_video(settings.video_dir, case["id"], trial, frames) if settings.video_dir else None
-        return session.result(video)
+        result = session.result(video)
+        failed = False
+        return result
     finally:
-        session.close()
+        session.close(failed)
 
 
 def _video_frame(obs: dict, images: dict | None) -> np.ndarray:
