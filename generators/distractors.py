@@ -47,9 +47,9 @@ from generators.fixture_goal import CLOSE_RADII, acted_on, anchor_xy, fixture_go
 from vpro_assets.core.errors import GeneratorError
 from vpro_assets.scene.bddl_doc import Region
 from vpro_assets.scene.context import GenContext
-from vpro_assets.scene.init_gen import stuck_revision
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.recolor import recolored_object
+from vpro_assets.scene.revisions import stuck_revision
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
 JITTER = 0.015

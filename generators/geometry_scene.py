@@ -50,9 +50,9 @@ from vpro_assets.core import paths
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.objects import deformed as tg
 from vpro_assets.scene.context import GenContext
-from vpro_assets.scene.init_gen import stuck_revision
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.receptacle import Clearance, clearance, object_size, resting_size
+from vpro_assets.scene.revisions import stuck_revision
 from vpro_assets.scene.variant import GeneratedObject, Placement, SceneVariant
 
 FIT_MARGIN_M = 0.0025  # the room a fitted target leaves where the original leaves more
@@ -89,7 +89,7 @@ def fit_revision(case: dict) -> str:
 
 def revision(case: dict) -> str:
     """The case's revisions: FIT_REVISION for a target fitted to an enclosed receptacle,
-    STUCK_REVISION (`init_gen`) for one standing on a thin plate."""
+    STUCK_REVISION (`scene.revisions`) for one standing on a thin plate."""
     return " ".join(r for r in (fit_revision(case), stuck_revision(case)) if r)
 
 

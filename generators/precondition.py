@@ -29,9 +29,9 @@ from __future__ import annotations
 
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.scene.context import GenContext
-from vpro_assets.scene.init_gen import target_support
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.pose import LIE
+from vpro_assets.scene.revisions import target_support
 from vpro_assets.scene.variant import JointSetting, KeepClear, Placement, SceneVariant
 
 # The drawer right under the top of a cabinet a target goes on (libero_goal "on the top of the drawer").
@@ -195,7 +195,7 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
 
 
 # Revision ENCLOSE_REVISION: a target turned upside down that came down over the object it stood on
-# (libero_spatial-05's bowl over the ramekin, wedged) is drawn again beside it (`init_gen._enclosing`).
+# (libero_spatial-05's bowl over the ramekin, wedged) is drawn again beside it (`start_checks.enclosing`).
 # Only a target LIBERO stands on an object can; those cases are built again, the others keep theirs.
 ENCLOSE_REVISION = "enclose1"
 

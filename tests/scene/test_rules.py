@@ -117,7 +117,7 @@ def test_a_drawer_set_closed_never_starts_jammed_in_its_cabinet(tmp_path):
     into the cabinet's base plate and MuJoCo holds it with kilonewtons (a 5 kN pull did not move it).
     Every trial must start closed (LIBERO's own test), free of its cabinet, and move under a gentle
     push; and the push finds a drawer set 4 mm in jammed."""
-    from vpro_assets.scene import init_gen, sim
+    from vpro_assets.scene import sim, start_checks
 
     cid = "libero_10-03/task_precondition_variation/receptacle_openness-v1"
     with variant_env(cid, tmp_path) as (ctx, v, env):
@@ -128,10 +128,10 @@ def test_a_drawer_set_closed_never_starts_jammed_in_its_cabinet(tmp_path):
             state = sim.flattened_state(env)
             q = float(sim.raw(env).sim.data.get_joint_qpos(joint.joint))
             assert cabinet.is_close(q) and q < 0.002, (trial, q)
-            assert init_gen.jammed_parts(env, v, state) == []
+            assert start_checks.jammed_parts(env, v, state) == []
         sim.raw(env).sim.data.set_joint_qpos(joint.joint, 0.004)
         sim.raw(env).sim.forward()
-        assert init_gen.jammed_parts(env, v, sim.flattened_state(env)) == [
+        assert start_checks.jammed_parts(env, v, sim.flattened_state(env)) == [
             f"{joint.joint} is jammed (moved 0.00 mm under 20 N or N m)"
         ]
 
@@ -146,7 +146,7 @@ def test_a_deformed_target_never_starts_locked_under_a_thin_support(tmp_path):
     built first (its deformed bowl registered)."""
     from conftest import build_scene_case
 
-    from vpro_assets.scene import build, init_gen, sim
+    from vpro_assets.scene import build, sim, start_checks
 
     cid = "libero_spatial-07/target_geometry_variation/taper-s1-v1"
     build_scene_case(cid)
@@ -155,7 +155,7 @@ def test_a_deformed_target_never_starts_locked_under_a_thin_support(tmp_path):
         start_trial(env, ctx, v, 0)
         bowl = ctx.task.target
         assert sim.body_layout(env)[bowl]["lo"][2] > 0.9295  # on the plate, not through it
-        assert init_gen.stuck_objects(env, [bowl], sim.flattened_state(env)) == []
+        assert start_checks.stuck_objects(env, [bowl], sim.flattened_state(env)) == []
         data = sim.raw(env).sim.data
         joint = sim.raw(env).objects_dict[bowl].joints[-1]
         qpos = np.array(data.get_joint_qpos(joint))
@@ -163,7 +163,7 @@ def test_a_deformed_target_never_starts_locked_under_a_thin_support(tmp_path):
         data.set_joint_qpos(joint, qpos)
         sim.raw(env).sim.forward()
         sim.settle(env)
-        (held,) = init_gen.stuck_objects(env, [bowl], sim.flattened_state(env))
+        (held,) = start_checks.stuck_objects(env, [bowl], sim.flattened_state(env))
         assert held.startswith(f"{bowl} is held by what it stands on")
 
 

@@ -22,13 +22,13 @@ still moves, e.g. a deformed target rocking on an uneven base). The state is acc
   was not moved more than 5 mm or tilted more than 5 degrees by the settling, and touches no set
   part's fixture, and
 - every part the variant's joints set moves when pushed gently toward the middle of its range
-  (`jammed_parts`: a drawer drawn a few millimetres into LIBERO's closed range can run under its
+  (`start_checks.jammed_parts`: a drawer drawn a few millimetres into LIBERO's closed range can run under its
   cabinet's base plate, where MuJoCo holds the overlap with kilonewtons: libero_10-03's bottom
   drawer, which no policy could then open), and
-- every object the variant places comes up under a gentle pull (`stuck_objects`: a deformed bowl
+- every object the variant places comes up under a gentle pull (`start_checks.stuck_objects`: a deformed bowl
   dropped from LIBERO's height through libero_spatial-07's stove's 1 mm top plate rested locked
   under it), and
-- no object turned upside down came down over an object within its footprint (`_enclosing`:
+- no object turned upside down came down over an object within its footprint (`start_checks.enclosing`:
   libero_spatial-05's bowl over the ramekin it stood on); the next attempts stand it beside it.
 A rejected draw is redrawn (next attempt) up to MAX_ATTEMPTS times; then InitStateError names the
 case, the trial and the reasons. An object that keeps its LIBERO place first keeps LIBERO's height;
@@ -52,9 +52,7 @@ import numpy as np
 from vpro_assets.core import seeding
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.mjgeom import quat_mul, subtree
-from vpro_assets.libero import bridge as libero_bridge
-from vpro_assets.libero.tasks import get_task
-from vpro_assets.scene import bddl_doc, sim, travel
+from vpro_assets.scene import sim, start_checks, travel
 from vpro_assets.scene.pose import INVERT, class_quat
 from vpro_assets.scene.variant import JointSetting, Placement, SceneVariant
 
@@ -62,26 +60,9 @@ log = logging.getLogger(__name__)
 
 MAX_ATTEMPTS = 6
 EXTRA_SETTLE = 3  # seconds of further settling for objects still moving after the first
-# A part set by the variant must move under a gentle push (what a gripper can do many times over).
-PROBE_FORCE = 20.0  # N on a slide joint, N m on a hinge
-PROBE_STEPS = 10  # control steps: half a second
-PROBE_SLIDE_M, PROBE_HINGE_RAD = 0.002, 0.035
-# A placed object must come up under a gentle pull (`stuck_objects`): PULL_WEIGHTS times the weight of
-# all the scene's movable objects (so a stack on it comes too) raises it at least PULL_RISE_M within
-# PROBE_STEPS.
-PULL_WEIGHTS, PULL_RISE_M = 2.0, 0.002
-# Revision STUCK_REVISION of the generators that place an object where the task's target stands
-# (`stuck_revision`): `stuck_objects` came after the scene cases were first built, and a scan of
-# every built case's stored starts (what `vpro validate` checks) found it rejecting starts only where
-# that object stands on libero_spatial-07's stove, through whose 1 mm top plate it had fallen: the
-# deformed bowls of taper-s1/-s2/-s3, asymmetric-s1/-s3 and multipeak-s3, and familiar_position's
-# ramekin in the bowl's place. Those generators' cases of a target on a thin plate are built again.
-STUCK_REVISION = "stuck1"
-THIN_PLATE_REGIONS = ("flat_stove_1_cook_region",)
 CUT_TOL_M = 0.0001  # a part may touch its fixture; deeper than this it cuts into it
 MAX_DRAWS = 200  # position draws per placement and attempt
 SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
-SUPPORT_TOL = 0.005  # m: a body whose top is at most this far above an object's bottom supports it
 
 
 class InitStateError(VProError):
@@ -140,8 +121,8 @@ def _place(
     that keeps its LIBERO place (a turned or replaced target) keeps its lowest point where LIBERO's
     object had it (on the table, in a drawer), or with `onto_support` rests on what is below it;
     a moved or added one goes onto the table surface. `beside_covered`: an inverted object that
-    came down over what it stood on (`_enclosing`) stands beside it instead; `lower_taken`: one that
-    takes another's place rests on what is below it (`stuck_objects`: libero_spatial-07's ramekin in
+    came down over what it stood on (`start_checks.enclosing`) stands beside it instead; `lower_taken`: one that
+    takes another's place rests on what is below it (`start_checks.stuck_objects`: libero_spatial-07's ramekin in
     the bowl's place on the stove, dropped from the bowl's height, fell through the stove's top plate)."""
     data = sim.raw(env).sim.data
     raw = sim.raw(env)
@@ -312,8 +293,12 @@ def _kept_spot(
         return xy
     centre = (own["lo"][:2] + own["hi"][:2]) / 2
     # What it stands on (a drawer, a rack, a cookie box) does not count: it stays there.
-    floor = base_layout[p.instance]["lo"][2] + SUPPORT_TOL
-    covered = [v for v in others.values() if beside_covered and p.invert and v["kind"] == "object" and _covered(v, own)]
+    floor = base_layout[p.instance]["lo"][2] + start_checks.SUPPORT_TOL
+    covered = [
+        v
+        for v in others.values()
+        if beside_covered and p.invert and v["kind"] == "object" and start_checks.within_footprint(v, own)
+    ]
     neighbours = [
         (v["lo"], v["hi"])
         for v in others.values()
@@ -327,141 +312,6 @@ def _kept_spot(
         with contextlib.suppress(InitStateError):
             xy = _ring_spot(p, xy, rng, offset, radius, neighbours)
     return xy
-
-
-def _covered(box: dict, own: dict) -> bool:
-    """Whether an object's footprint lies within `own` footprint."""
-    return bool(np.all(box["lo"][:2] >= own["lo"][:2]) and np.all(box["hi"][:2] <= own["hi"][:2]))
-
-
-def _enclosing(env, variant: SceneVariant) -> list[str]:
-    """Inverted objects that came down over an object within their footprint (its top more than
-    SUPPORT_TOL above their lowest point). An inverted bowl set on the ramekin of libero_spatial-05
-    (LIBERO's "black bowl on the ramekin") came down over it, and the ramekin stayed wedged in its
-    hull pieces: a 1 N pull lifted both, 3 N did not part them, and on the plate the bowl rested on
-    the ramekin, so the goal could not be met. The next attempts stand it beside what it covered
-    (revision ENCLOSE_REVISION of the object_pose generator). One resting on top of a box it spans
-    (libero_spatial-03's bowl on the cookie box) is not enclosing."""
-    layout = sim.body_layout(env)
-    out = []
-    for p in (p for p in variant.placements if p.invert):
-        own = layout[p.instance]
-        out += [
-            f"{p.instance} came down over {name}"
-            for name, v in layout.items()
-            if name != p.instance
-            and v["kind"] == "object"
-            and v["hi"][2] > own["lo"][2] + SUPPORT_TOL
-            and _covered(v, own)
-        ]
-    return out
-
-
-def _problems(env, success: bool) -> list[str]:
-    out = []
-    layout = sim.body_layout(env)
-    lows = {n: v["lo"][2] for n, v in layout.items() if v["kind"] == "object"}
-    surface = float(np.median(list(lows.values())))
-    out += [
-        f"{n} left the table (its lowest point is {surface - z:.3f} m below the surface)"
-        for n, z in lows.items()
-        if z < surface - sim.DROP_TOL
-    ]
-    out += [f"{n} still moving ({lin:.3f} m/s, {ang:.2f} rad/s)" for n, lin, ang in sim.moving_objects(env)]
-    out += [f"{a} and {b} interpenetrate by {d * 1000:.1f} mm" for a, b, d in sim.penetrations(env)]
-    if success:
-        out.append("the goal is already satisfied")
-    return out
-
-
-def drift(env, steps: int = sim.SETTLE_STEPS) -> list[str]:
-    """Objects that move more than DRIFT_TOL (or do not rest) in `steps` zero-action steps."""
-    before = sim.free_object_state(env)
-    sim.settle(env, steps)
-    after = sim.free_object_state(env)
-    out = [
-        f"{n} moved {np.linalg.norm(after[n][0][:3] - q[:3]) * 1000:.1f} mm"
-        for n, (q, _) in before.items()
-        if np.linalg.norm(after[n][0][:3] - q[:3]) > sim.DRIFT_TOL
-    ]
-    out += [f"{n} still moving ({lin:.3f} m/s)" for n, lin, _ in sim.moving_objects(env)]
-    return out
-
-
-def jammed_parts(env, variant: SceneVariant, state: np.ndarray) -> list[str]:
-    """The parts set by the variant's joints that do not move, from `state`, under a gentle force
-    (PROBE_FORCE on the joint toward the middle of its range, PROBE_STEPS zero-action steps)."""
-    raw = sim.raw(env)
-    model, data = raw.sim.model._model, raw.sim.data._data
-    out = []
-    for js in variant.joints:
-        joint = raw.sim.model.joint_name2id(js.joint)
-        dof, adr = int(model.jnt_dofadr[joint]), int(model.jnt_qposadr[joint])
-        slide = model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_SLIDE
-        sim.load_state(env, state)
-        start = float(data.qpos[adr])
-        lo, hi = model.jnt_range[joint]
-        data.qfrc_applied[dof] = PROBE_FORCE if (lo + hi) / 2 > start else -PROBE_FORCE
-        sim.settle(env, PROBE_STEPS)
-        data.qfrc_applied[dof] = 0.0
-        moved = abs(float(data.qpos[adr]) - start)
-        if moved < (PROBE_SLIDE_M if slide else PROBE_HINGE_RAD):
-            unit, scale = ("mm", 1000) if slide else ("mrad", 1000)
-            out.append(f"{js.joint} is jammed (moved {moved * scale:.2f} {unit} under {PROBE_FORCE:g} N or N m)")
-    sim.load_state(env, state)
-    return out
-
-
-def stuck_objects(env, instances: list[str], state: np.ndarray) -> list[str]:
-    """The objects of `instances` that do not come up, from `state`, under a gentle pull: each
-    pulled upward at its body, all at once, with PULL_WEIGHTS times the weight of every movable
-    object (so a stack on it comes too) for PROBE_STEPS zero-action steps. A deformed bowl kept at
-    LIBERO's height, 8 cm over libero_spatial-07's stove, fell through the stove's 1 mm top plate
-    (MuJoCo's convex collision of its thin hull pieces) and rested locked under it, on the stove's
-    base: 30 N, 550 times its weight, raised it 2 mm, and no gripper took it off. `vpro validate`
-    asks the same of every movable object of every stored start."""
-    raw = sim.raw(env)
-    model, data = raw.sim.model._model, raw.sim.data._data
-    movable = [raw.sim.model.body_name2id(o.root_body) for o in raw.objects_dict.values() if o.joints]
-    pull = PULL_WEIGHTS * float(-model.opt.gravity[2]) * float(sum(model.body_subtreemass[b] for b in movable))
-    bodies = {name: raw.sim.model.body_name2id(raw.objects_dict[name].root_body) for name in instances}
-    if not bodies:
-        return []
-    sim.load_state(env, state)
-    start = {name: float(data.xpos[b][2]) for name, b in bodies.items()}
-    risen = dict.fromkeys(bodies, -math.inf)
-    for _ in range(PROBE_STEPS):
-        for b in bodies.values():
-            data.xfrc_applied[b, 2] = pull
-        sim.settle(env, 1)
-        # The highest it came: one pulled free can hit what is above it and end lower (libero_goal-03's
-        # bowl under the drawer set open over it rose 8 cm in a step and then fell into the drawer).
-        risen = {name: max(risen[name], float(data.xpos[b][2]) - start[name]) for name, b in bodies.items()}
-        if all(rose >= PULL_RISE_M for rose in risen.values()):
-            break
-    data.xfrc_applied[:] = 0.0
-    sim.load_state(env, state)
-    return [
-        f"{name} is held by what it stands on (rose {rose * 1000:.2f} mm under {pull:.2f} N)"
-        for name, rose in risen.items()
-        if rose < PULL_RISE_M
-    ]
-
-
-def target_support(case: dict) -> str | None:
-    """What the case's task stands its target on in LIBERO's BDDL (`(On target X)`: an object
-    instance or a region), None where the init states none."""
-    task = get_task(case["task"])
-    for pred in bddl_doc.read_base(libero_bridge.bddl_path(task.suite, task.name)).init:
-        words = pred.strip("()").split()
-        if len(words) == 3 and words[0] == "On" and words[1] == task.target:
-            return words[2]
-    return None
-
-
-def stuck_revision(case: dict) -> str:
-    """STUCK_REVISION where the case's task stands its target on a thin plate, else ""."""
-    return STUCK_REVISION if target_support(case) in THIN_PLATE_REGIONS else ""
 
 
 def trial_state(
@@ -514,17 +364,21 @@ def trial_state(
             if not sim.moving_objects(env):
                 break
             sim.settle(env)
-        enclosing = _enclosing(env, variant)
+        enclosing = start_checks.enclosing(env, variant)
         beside_covered = beside_covered or bool(enclosing)
-        problems = _problems(env, bool(raw._check_success())) + travel.disturbed(env, variant, placed) + enclosing
+        problems = (
+            start_checks.settle_problems(env, bool(raw._check_success()))
+            + travel.disturbed(env, variant, placed)
+            + enclosing
+        )
         if not problems:
             state = sim.flattened_state(env)
             sim.load_state(env, state)
-            problems = [f"after storing: {p}" for p in drift(env)]
+            problems = [f"after storing: {p}" for p in start_checks.drift(env)]
             if not problems:
-                problems = jammed_parts(env, variant, state)
+                problems = start_checks.jammed_parts(env, variant, state)
             if not problems:
-                problems = stuck_objects(env, [p.instance for p in variant.placements], state)
+                problems = start_checks.stuck_objects(env, [p.instance for p in variant.placements], state)
                 lower_taken = lower_taken or bool(problems)
             if not problems:
                 return state

@@ -5,7 +5,7 @@ generated object's MJCF compiles alone; LIBERO builds the env from the BDDL; the
 (`sim.model.get_xml()`) compiles again in MuJoCo with no warning; every frozen initial state has
 the model's width and loads; visual-only additions have no geom that can collide; and one second of zero actions from each leaves every object at rest
 (moved less than 1 cm, slower than 2 cm/s) with no MuJoCo warning raised while stepping, and every
-movable object comes up under a gentle pull (none starts locked: `init_gen.stuck_objects`).
+movable object comes up under a gentle pull (none starts locked: `start_checks.stuck_objects`).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from vpro_assets.libero.tasks import get_task
 from vpro_assets.scene import bddl_doc, sim
 from vpro_assets.scene.build import _worker_init as build_worker_init
 from vpro_assets.scene.build import built_case
-from vpro_assets.scene.init_gen import drift, stuck_objects
+from vpro_assets.scene.start_checks import drift, stuck_objects
 
 log = logging.getLogger(__name__)
 
