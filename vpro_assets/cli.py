@@ -10,6 +10,7 @@ import logging
 import os
 import sys
 
+from vpro_assets.core import mjlog
 from vpro_assets.core.errors import VProError
 
 # Modules that contribute subcommands, in the order `vpro --help` lists them.
@@ -56,6 +57,7 @@ def main(argv: list[str] | None = None) -> int:
         # robosuite warns about its private macro file on every import; not the user's concern.
         logging.getLogger("robosuite").setLevel(logging.ERROR)
         os.environ.setdefault("PYTHONWARNINGS", "ignore")
+    mjlog.route_warnings()
     try:
         return int(args.run(args) or 0)
     except VProError as exc:

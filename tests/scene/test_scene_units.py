@@ -206,8 +206,8 @@ def test_clean_partial_removes_only_folders_of_dead_writers(tmp_path, monkeypatc
 def test_validation_reports_a_written_back_mjcf_that_does_not_compile_or_warns(tmp_path, monkeypatch):
     """`vpro validate` compiles the scene's written-back MJCF once its env is closed, from the text:
     a text that does not compile is a problem, so is one whose first forward pass warns (20 spheres
-    piled into each other with room for too few contacts), and a sound one is none. (MuJoCo logs
-    the warning to MUJOCO_LOG.TXT in the working directory: a temporary one, not the work tree.)"""
+    piled into each other with room for too few contacts), and a sound one is none. (Called without
+    `core.mjlog`'s routing, MuJoCo's own handler writes MUJOCO_LOG.TXT: into a temporary directory.)"""
     from vpro_assets.scene.validate import _xml_problems
 
     monkeypatch.chdir(tmp_path)

@@ -23,7 +23,7 @@ from vpro_assets.libero.settled import pose_difference
 from vpro_assets.rollout.case_env import case_inputs
 from vpro_assets.rollout.episode import WAIT_STEPS
 from vpro_assets.rollout.settle import SPEED_LIMIT_M_S, settle_trial, trial_problems
-from vpro_assets.scene.build import _worker_init
+from vpro_assets.scene.build import worker_init
 
 
 def add_parser(sub) -> None:
@@ -175,7 +175,7 @@ def _settle_cases(
             yield _settle_case(case, trials, wait_steps)
             bar.update(1)
     else:
-        with ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init) as pool:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=worker_init) as pool:
             for done in pool.map(_settle_case, todo, [trials] * len(todo), [wait_steps] * len(todo)):
                 yield done
                 bar.update(1)

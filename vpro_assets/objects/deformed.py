@@ -48,6 +48,7 @@ from pathlib import Path
 
 from vpro_assets.benchmark import taxonomy
 from vpro_assets.benchmark.taxonomy import Setting
+from vpro_assets.core import mjlog
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import InvalidParameterError, UnknownIdError
 from vpro_assets.core.hashing import sha256_file
@@ -252,6 +253,7 @@ def _generate_in_child(
 
 def _generate_measured(*args, **kwargs) -> GeneratedObject:
     """`generate_deformed_object` with this (child) process's peak memory in the result."""
+    mjlog.route_warnings()
     return dataclasses.replace(generate_deformed_object(*args, **kwargs), peak_rss_mb=peak_rss_mb())
 
 

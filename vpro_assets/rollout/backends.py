@@ -50,9 +50,7 @@ def run_inline(jobs: Iterable[dict]) -> Iterator[dict]:
 def _worker_main(tasks, results, send_lock, parent_pid: int, env: dict) -> None:
     die_with_parent(parent_pid)
     os.environ.update(env)
-    import logging as _logging
-
-    _logging.getLogger("robosuite").setLevel(_logging.ERROR)
+    logging.getLogger("robosuite").setLevel(logging.ERROR)
     while True:
         try:
             job = tasks.get(timeout=1.0)

@@ -18,6 +18,7 @@ import socket
 import time
 import traceback
 
+from vpro_assets.core import mjlog
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import simulator_versions
 from vpro_assets.rollout.case_env import CaseUnavailableError
@@ -92,6 +93,7 @@ def base_row(job: dict) -> dict:
 
 
 def execute_job(job: dict) -> dict:
+    mjlog.route_warnings()  # a Ray worker starts here
     settings = EpisodeSettings(**job["settings"])
     row = base_row(job)
     attempts = job.get("prior_attempts", 0)

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from vpro_assets.core import mjcache, numerics, paths
+from vpro_assets.core import mjcache, mjlog, numerics, paths
 from vpro_assets.core.atomic import publish_dir
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import canonical_json, sha256_bytes
@@ -232,7 +232,9 @@ def _meta(
 ASSET_CACHE_BYTES = 256 << 20
 
 
-def _worker_init() -> None:
+def worker_init() -> None:
+    """What a build, validate or settle worker sets once at its start."""
+    mjlog.route_warnings()
     mjcache.set_capacity(ASSET_CACHE_BYTES)
     os.environ.setdefault("LP_NUM_THREADS", "1")
     logging.getLogger("robosuite").setLevel(logging.ERROR)
@@ -301,7 +303,7 @@ def build(cases: list[dict], jobs: int = 1, force: bool = False, progress: bool 
                     _collect(_build_group([case], force), results, bar)
         else:
             # One task per submission, so each worker measures a base scene once per task it gets.
-            with ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init) as pool:
+            with ProcessPoolExecutor(max_workers=jobs, initializer=worker_init) as pool:
                 futures = [pool.submit(_build_group, g, force) for g in groups.values()]
                 for fut in as_completed(futures):
                     _collect(fut.result(), results, bar)

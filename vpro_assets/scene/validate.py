@@ -25,8 +25,8 @@ from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.init_states import read_init_states
 from vpro_assets.libero.tasks import get_task
 from vpro_assets.scene import bddl_doc, sim
-from vpro_assets.scene.build import _worker_init as build_worker_init
 from vpro_assets.scene.build import built_case
+from vpro_assets.scene.build import worker_init as build_worker_init
 from vpro_assets.scene.start_checks import drift, stuck_objects
 
 log = logging.getLogger(__name__)
