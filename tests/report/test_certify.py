@@ -178,7 +178,8 @@ def _committed(case_id: str, trials: list[int], solved: list[int]) -> dict:
         "cases": {
             case_id: _entry(case_id)
             | {"trials": len(trials), "solved": len(solved), "errors": 0, "solved_trials": solved,
-               "trial_ids": trials, "steps": [100 + t for t in trials], "final_state": [f"fp{t}" for t in trials]}
+               "trial_ids": trials, "steps": [100 + t for t in trials], "final_state": [f"fp{t}" for t in trials],
+               "code_versions": {"c0ffee": trials[:1], "unrecorded": trials[1:]}}
         },
     }  # fmt: skip
 
@@ -197,8 +198,9 @@ def test_resume_on_a_fresh_machine_continues_from_the_committed_certificate(tmp_
     entry = write_outputs(paths.catalog_path(), tmp_path / "c.sqlite", _outputs(tmp_path), replays=False)["cases"][
         NORMAL
     ]
-    assert {k: entry[k] for k in ("trials", "solved_trials", "steps", "final_state")} == {
-        "trials": 2, "solved_trials": [1], "steps": [100, 101], "final_state": ["fp0", "fp1"]
+    assert {k: entry[k] for k in ("trials", "solved_trials", "steps", "final_state", "code_versions")} == {
+        "trials": 2, "solved_trials": [1], "steps": [100, 101], "final_state": ["fp0", "fp1"],
+        "code_versions": {"c0ffee": [0], "unrecorded": [1]},
     }  # fmt: skip
     other = committed | {"versions": {"mujoco": "2.3.7", "robosuite": "1.4.1"}}
     with ResultsStore(tmp_path / "d.sqlite") as store:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import json
 import sqlite3
+import subprocess
 
 import mujoco
 import numpy as np
@@ -239,7 +240,7 @@ def test_report_names_the_simulator_and_refuses_to_pool_two(tmp_path):
     assert "mujoco 3.2.3" in text and "mujoco 3.8.1" in text and "POOLED" in text
 
 
-def test_episode_rows_record_the_worker_simulator():
+def test_episode_rows_record_the_worker_simulator_and_the_toolkit_commit():
     from vpro_assets.rollout.jobs import base_row
 
     job = {
@@ -254,20 +255,23 @@ def test_episode_rows_record_the_worker_simulator():
             "trial_seeds": [1],
         },
     }
-    assert base_row(job)["simulator"] == simulator_versions()
+    row = base_row(job)
+    assert row["simulator"] == simulator_versions()
     assert simulator_versions()["mujoco"] == mujoco.__version__
+    head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=paths.REPO_ROOT, capture_output=True, text=True)
+    assert row["code_version"].removesuffix("+dirty") == head.stdout.strip()
 
 
-def test_schema1_results_gain_the_simulator_column(tmp_path):
+def test_schema1_results_gain_the_simulator_and_code_version_columns(tmp_path):
     db = tmp_path / "old.sqlite"
     con = sqlite3.connect(db)
-    schema1 = store_module._SCHEMA.replace("    simulator TEXT,\n", "")
+    schema1 = store_module._SCHEMA.replace("    simulator TEXT,\n", "").replace("    code_version TEXT,\n", "")
     assert schema1 != store_module._SCHEMA
     con.executescript(schema1 + "PRAGMA user_version=1;")
     con.close()
     with ResultsStore(db) as store:
         cols = {r[1] for r in store.db.execute("PRAGMA table_info(episodes)")}
-    assert "simulator" in cols
+    assert {"simulator", "code_version"} <= cols
 
 
 # Normal baselines whose start has an object off the table, out of view or faster than

@@ -12,7 +12,8 @@ listed: their physics is their base task's Normal baseline, whose entry they inh
     {"schema_version": 1, "catalog_sha256": ..., "lock_sha256": ..., "policy": "oracle",
      "settings": {...}, "versions": {...},
      "cases": {"libero_goal-05/normal": {"case_sha256": ..., "trials": 10, "solved": 10, "errors": 0,
-               "steps": [...], "final_state": [...], "solved_trials": [...]}, ...}}
+               "steps": [...], "final_state": [...], "solved_trials": [...],
+               "code_versions": {"<git commit>" | "unrecorded": [trials]}}, ...}}
 """
 
 from __future__ import annotations

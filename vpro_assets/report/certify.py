@@ -23,6 +23,7 @@ import json
 import logging
 import statistics
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -126,12 +127,15 @@ def carry_certificate(
         if case is None or cid in skip or entry.get("case_sha256") != cert.case_sha256(case):
             continue
         solved = set(entry["solved_trials"])
+        commit = {t: v for v, trials in entry.get("code_versions", {}).items() for t in trials}
         for trial, steps, final in zip(entry["trial_ids"], entry["steps"], entry["final_state"], strict=True):
             row = base_row(make_job(RUN_ID, case, trial, POLICY, {}, settings, 0, 0.0))
+            code = commit.get(trial)
             store.record(
                 row
                 | {"status": "ok", "success": trial in solved, "steps": steps, "final_state": final}
                 | {"worker": "carried from the certificate", "simulator": sim}
+                | {"code_version": None if code in (None, solvability.UNRECORDED) else code}
             )
         carried.append(case)
     return carried
@@ -334,6 +338,11 @@ def write_outputs(catalog_file: Path, results: Path, outputs: Outputs, replays: 
             )
         )
         + " (per trial in the results database's `simulator` column)",
+        "toolkit": "; ".join(
+            f"{'commit ' + code if code != solvability.UNRECORDED else code} {n} trials"
+            for code, n in Counter(r.get("code_version") or solvability.UNRECORDED for r in ok_rows).most_common()
+        )
+        + " (per case in the certificate's `code_versions`: the commit whose oracle ran each trial)",
         "certified": f"{certified} of {certifiable} certifiable cases (40 Normal baselines + {scene_total} scene cases); "
         f"{len(ok_rows)} trials",
         "episode time": (

@@ -24,6 +24,7 @@ SCENE_CASE_MIN = 7  # of 10 trials: every scene case
 SCENE_SETTING_MIN = 0.90
 FINDINGS_BEGIN = "<!-- findings: written by hand, kept by `vpro certify` -->"
 FINDINGS_END = "<!-- end of findings -->"
+UNRECORDED = "unrecorded"
 
 
 @dataclass
@@ -34,6 +35,7 @@ class CaseResult:
     errors: dict[int, str] = field(default_factory=dict)  # trial -> error message
     steps: dict[int, int] = field(default_factory=dict)
     final_state: dict[int, str] = field(default_factory=dict)
+    code_version: dict[int, str | None] = field(default_factory=dict)  # trial -> toolkit commit
 
     @property
     def trials(self) -> int:
@@ -59,7 +61,17 @@ def collect(cases: Iterable[dict], rows: Iterable[Mapping]) -> dict[str, CaseRes
         (res.solved if row["success"] else res.failed).append(t)
         res.steps[t] = int(row["steps"])
         res.final_state[t] = str(row["final_state"])
+        res.code_version[t] = row.get("code_version")
     return {cid: r for cid, r in results.items() if r.trials or r.errors}
+
+
+def code_versions(r: CaseResult) -> dict[str, list[int]]:
+    """The toolkit commits that ran the case's trials (`core.provenance`), each with its trials;
+    UNRECORDED for trials run before the results recorded it."""
+    out: dict[str, list[int]] = {}
+    for t in sorted(r.solved + r.failed):
+        out.setdefault(r.code_version.get(t) or UNRECORDED, []).append(t)
+    return out
 
 
 def certificate(
@@ -81,6 +93,7 @@ def certificate(
             "steps": [r.steps[t] for t in trials],
             "final_state": [r.final_state[t] for t in trials],
             "trial_ids": trials,
+            "code_versions": code_versions(r),
         }
     return {
         "schema_version": SCHEMA_VERSION,

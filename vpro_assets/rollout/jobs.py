@@ -18,7 +18,7 @@ import socket
 import time
 import traceback
 
-from vpro_assets.core import mjlog
+from vpro_assets.core import mjlog, provenance
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import simulator_versions
 from vpro_assets.rollout.case_env import CaseUnavailableError
@@ -89,6 +89,7 @@ def base_row(job: dict) -> dict:
         "level": "normal" if normal else case.get("level"),
         "worker": f"{socket.gethostname()}:{os.getpid()}",
         "simulator": simulator_versions(),
+        "code_version": provenance.code_version(),
     }
 
 

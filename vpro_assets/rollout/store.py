@@ -14,7 +14,8 @@ Tables:
        | 'neither'), contact_detail JSON, wall_time, artifact_hashes JSON, error, error_kind,
        attempts, worker, finished_at, video, final_state (sha256 of the
        simulator state at the end: a fingerprint of the trajectory, equal across backends),
-       simulator JSON (the worker's mujoco, robosuite and hf-libero versions; schema 2))
+       simulator JSON (the worker's mujoco, robosuite and hf-libero versions; schema 2),
+       code_version (the toolkit's git commit that ran the episode: `core.provenance`; schema 3))
 """
 
 from __future__ import annotations
@@ -27,7 +28,9 @@ from pathlib import Path
 
 from vpro_assets.core.errors import VProError
 
-SCHEMA_VERSION = 2  # 2: episodes.simulator (a schema-1 file gains the column when opened)
+# 2: episodes.simulator, 3: episodes.code_version (an older file gains the columns when opened; its
+# rows keep NULL there: not recorded)
+SCHEMA_VERSION = 3
 STATUSES = ("ok", "error", "unavailable")
 
 _SCHEMA = """
@@ -65,6 +68,7 @@ CREATE TABLE IF NOT EXISTS episodes (
     video TEXT,
     final_state TEXT,
     simulator TEXT,
+    code_version TEXT,
     PRIMARY KEY (run_id, case_id, trial)
 );
 CREATE INDEX IF NOT EXISTS episodes_by_category ON episodes(run_id, category, setting);
@@ -99,6 +103,7 @@ EPISODE_COLUMNS = (
     "video",
     "final_state",
     "simulator",
+    "code_version",
 )
 _JSON_COLUMNS = ("phase_timeline", "contact_detail", "artifact_hashes", "simulator")
 
@@ -126,12 +131,13 @@ class ResultsStore:
             raise VProError(f"{self.path}: not a results database ({exc})") from None
         if mode.lower() != "wal":
             raise VProError(f"{self.path}: SQLite refused WAL mode (got {mode!r}); use a local file system")
-        if version not in (0, 1, SCHEMA_VERSION):
+        if version not in (0, 1, 2, SCHEMA_VERSION):
             raise VProError(f"{self.path}: results schema {version}, this toolkit reads schema {SCHEMA_VERSION}")
         self.db.executescript(_SCHEMA)
         columns = {r[1] for r in self.db.execute("PRAGMA table_info(episodes)")}
-        if "simulator" not in columns:  # schema 1: rows before simulators were recorded keep NULL
-            self.db.execute("ALTER TABLE episodes ADD COLUMN simulator TEXT")
+        for column in ("simulator", "code_version"):
+            if column not in columns:
+                self.db.execute(f"ALTER TABLE episodes ADD COLUMN {column} TEXT")
         self.db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
 
     def close(self) -> None:
