@@ -42,6 +42,12 @@ FRONT_M = 0.12  # where the hand turns to face the drawer, in front of the handl
 # front of its handle so far out that the arm came there stretched to its limit (elbow straight) and
 # stayed stuck 3 cm off the handle; nearer, it also saves about 10 steps.
 OPEN_FRONT_M = 0.06
+# Opening, the hand's last move onto the handle at full speed (the proportional law slows it for
+# its last 2.5 cm): 4 steps fewer than at 0.5. The fingers close on the handle in PINCH_STEPS: one
+# CLOSE action moves their target 1 cm, so 8 close them from open (8 cm) and a ninth presses; the
+# pull's CLOSE actions hold on. 3 steps fewer than GRIPPER_STEPS.
+ONTO_SPEED = 1.0
+PINCH_STEPS = 9
 ABOVE_M = 0.06
 LEAVE_BACK_M = 0.08  # leaving, the hand backs away this far along the axis before it rises
 # Closing, the hand leans this far below horizontal over the handle: its wrist then stays above what
@@ -121,6 +127,7 @@ def face_handle(
     tilt: float = 0.0,
     turn_early: bool = False,
     front_m: float = FRONT_M,
+    last_speed: float = 0.5,
 ) -> motion.Posing:
     """Bring the hand, facing the drawer, to `standoff` in front of the handle; the orientation.
     `vertical`: the fingers close vertically (to pinch a horizontal bar); else horizontally, which
@@ -128,7 +135,8 @@ def face_handle(
     this far (rad) below horizontal. `turn_early`: the hand turns on its way to the point above the
     front, passing through it (about 10 steps fewer); else it turns only there (the hand leaning down
     to push a bottom drawer, turning on the way, stalled against libero_10-03's wine rack). `front_m`:
-    how far in front of the handle it turns."""
+    how far in front of the handle it turns; `last_speed`: the speed of its last move, onto the
+    handle."""
     axis = open_direction(world, joint)
     handle = handle_point(world, joint)
     fingers = np.array([0.0, 0.0, 1.0]) if vertical else np.cross(axis, [0.0, 0.0, 1.0])
@@ -139,7 +147,7 @@ def face_handle(
     else:
         yield from motion.move_to(world, front + [0, 0, ABOVE_M], grip, None, tol=0.015, max_steps=120)
     yield from motion.move_to(world, front, grip, orient, tol=0.012, max_steps=120)
-    yield from motion.move_to(world, handle + axis * standoff, grip, orient, tol=0.008, max_steps=80, speed=0.5)
+    yield from motion.move_to(world, handle + axis * standoff, grip, orient, tol=0.008, max_steps=80, speed=last_speed)
     return orient
 
 
@@ -166,8 +174,10 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
             yield from drag(world, joint, goal)
             continue
         axis = open_direction(world, joint)
-        orient = yield from face_handle(world, joint, OPEN, 0.0, vertical=True, turn_early=True, front_m=OPEN_FRONT_M)
-        yield from motion.gripper(world, CLOSE, orient=orient)
+        orient = yield from face_handle(
+            world, joint, OPEN, 0.0, vertical=True, turn_early=True, front_m=OPEN_FRONT_M, last_speed=ONTO_SPEED
+        )
+        yield from motion.gripper(world, CLOSE, steps=PINCH_STEPS, orient=orient)
         travel = abs(joint.open_end - world.qpos(joint.id))
         start = world.eef()
         for _ in range(PULL_STEPS):
