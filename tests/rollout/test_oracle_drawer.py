@@ -60,6 +60,21 @@ def test_half_open_drawer_over_the_plate_opens_without_the_palm_on_the_plate(sce
     assert np.linalg.norm(s.world.body_pos("plate_1") - plate) < 0.005
 
 
+def test_top_drawer_three_quarters_out_opens_by_its_handle(scene):
+    """libero_goal-03's top drawer out 75% (-0.105, as its precondition case -open75 starts it; set
+    here so a clean clone needs no built scene case), its handle 10.5 cm farther out: where the hand
+    turned 12 cm in front of it, the arm came there stretched to its limit and stayed stuck 3 cm off
+    the handle's middle, pinched its end and slid off (1 of 10 trials solved). It opens past
+    LIBERO's Open, in the steps it takes from shut."""
+    s = scene("libero_goal-03/normal")
+    region = "wooden_cabinet_1_top_region"
+    joint = drawer.joint_for(s.world, region)
+    s.set_joint(joint.id, -0.105)
+    assert drawer.pinch_fits(s.world, joint) and not s.holds(("open", region))
+    s.run(drawer.open_(s.world, region), limit=100)
+    assert s.world.qpos(joint.id) < -0.14 and s.holds(("open", region))
+
+
 def test_jammed_drawer_fails_fast(scene):
     """Shut at 4.5 mm (inside LIBERO's closed range, 0 to 5 mm), the bottom drawer's front is wedged
     under the cabinet's base plate and does not move: the skill says so instead of pressing on."""

@@ -33,9 +33,23 @@ from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 HANDLE_DEPTH_M = 0.012  # geoms within this of the outermost point along the axis form the handle
 PULL_STEPS = 160
+# Pinching, the hand pulls at this speed (of the action's box): at 0.5 it took 26 steps to open
+# libero_goal-03's top drawer, at 0.8 17 (the drawer comes along, the pinch holds).
+PULL_SPEED = 0.8
 PUSH_STANDOFF_M = 0.03
 FRONT_M = 0.12  # where the hand turns to face the drawer, in front of the handle
+# Opening, the hand turns nearer: a top drawer out 75% (libero_goal-03 open75) put the point 12 cm in
+# front of its handle so far out that the arm came there stretched to its limit (elbow straight) and
+# stayed stuck 3 cm off the handle; nearer, it also saves about 10 steps.
+OPEN_FRONT_M = 0.06
+# Opening, the hand's last move onto the handle at full speed (the proportional law slows it for
+# its last 2.5 cm): 4 steps fewer than at 0.5. The fingers close on the handle in PINCH_STEPS: one
+# CLOSE action moves their target 1 cm, so 8 close them from open (8 cm) and a ninth presses; the
+# pull's CLOSE actions hold on. 3 steps fewer than GRIPPER_STEPS.
+ONTO_SPEED = 1.0
+PINCH_STEPS = 9
 ABOVE_M = 0.06
+LEAVE_BACK_M = 0.08  # leaving, the hand backs away this far along the axis before it rises
 # Closing, the hand leans this far below horizontal over the handle: its wrist then stays above what
 # stands in front of a bottom drawer (libero_10-03's wine rack stopped a level wrist in 6 of 10 trials).
 CLOSE_TILT_RAD = 0.8
@@ -112,33 +126,42 @@ def face_handle(
     vertical: bool,
     tilt: float = 0.0,
     turn_early: bool = False,
+    front_m: float = FRONT_M,
+    last_speed: float = 0.5,
 ) -> motion.Posing:
     """Bring the hand, facing the drawer, to `standoff` in front of the handle; the orientation.
     `vertical`: the fingers close vertically (to pinch a horizontal bar); else horizontally, which
     keeps the hand's long side off the table in front of a bottom drawer. `tilt`: the hand points
     this far (rad) below horizontal. `turn_early`: the hand turns on its way to the point above the
     front, passing through it (about 10 steps fewer); else it turns only there (the hand leaning down
-    to push a bottom drawer, turning on the way, stalled against libero_10-03's wine rack)."""
+    to push a bottom drawer, turning on the way, stalled against libero_10-03's wine rack). `front_m`:
+    how far in front of the handle it turns; `last_speed`: the speed of its last move, onto the
+    handle."""
     axis = open_direction(world, joint)
     handle = handle_point(world, joint)
     fingers = np.array([0.0, 0.0, 1.0]) if vertical else np.cross(axis, [0.0, 0.0, 1.0])
     orient = motion.facing(-axis * np.cos(tilt) - np.array([0.0, 0.0, np.sin(tilt)]), fingers, world.eef_mat())
-    front = handle + axis * FRONT_M
+    front = handle + axis * front_m
     if turn_early:
         yield from motion.move_to(world, front + [0, 0, ABOVE_M], grip, orient, tol=VIA_M, max_steps=120, turn_tol=None)
     else:
         yield from motion.move_to(world, front + [0, 0, ABOVE_M], grip, None, tol=0.015, max_steps=120)
     yield from motion.move_to(world, front, grip, orient, tol=0.012, max_steps=120)
-    yield from motion.move_to(world, handle + axis * standoff, grip, orient, tol=0.008, max_steps=80, speed=0.5)
+    yield from motion.move_to(world, handle + axis * standoff, grip, orient, tol=0.008, max_steps=80, speed=last_speed)
     return orient
 
 
-def leave(world: World, joint: Joint, grip: float) -> Actions:
-    """Back away from the drawer and point the hand down again."""
+def leave(world: World, joint: Joint, grip: float, turn_on: bool = False) -> Actions:
+    """Back away from the drawer and point the hand down again. `turn_on`: the turn down need not
+    be done when the hand is up (a way point: the next skill's first move, turning the hand too,
+    ends it on its way)."""
     axis = open_direction(world, joint)
     down = motion.down_with_yaw(float(np.arctan2(axis[1], axis[0])))
-    yield from motion.move_to(world, world.eef() + axis * 0.08, grip, None, tol=0.015, max_steps=40)
-    yield from motion.move_to(world, world.eef() + [0, 0, ABOVE_M], grip, down, tol=0.02, max_steps=80)
+    yield from motion.move_to(world, world.eef() + axis * LEAVE_BACK_M, grip, None, tol=0.015, max_steps=40)
+    turn_tol = None if turn_on else motion.TURN_TOL
+    yield from motion.move_to(
+        world, world.eef() + [0, 0, ABOVE_M], grip, down, tol=0.02, max_steps=80, turn_tol=turn_tol
+    )
 
 
 def open_(world: World, region: str, attempts: int = 2) -> Actions:
@@ -151,17 +174,19 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
             yield from drag(world, joint, goal)
             continue
         axis = open_direction(world, joint)
-        orient = yield from face_handle(world, joint, OPEN, 0.0, vertical=True, turn_early=True)
-        yield from motion.gripper(world, CLOSE, orient=orient)
+        orient = yield from face_handle(
+            world, joint, OPEN, 0.0, vertical=True, turn_early=True, front_m=OPEN_FRONT_M, last_speed=ONTO_SPEED
+        )
+        yield from motion.gripper(world, CLOSE, steps=PINCH_STEPS, orient=orient)
         travel = abs(joint.open_end - world.qpos(joint.id))
         start = world.eef()
         for _ in range(PULL_STEPS):
             if world.holds(goal):
                 break
-            yield motion.action_to(world, start + axis * (travel + 0.01), CLOSE, orient, speed=0.5)
+            yield motion.action_to(world, start + axis * (travel + 0.01), CLOSE, orient, speed=PULL_SPEED)
         # A few steps open the fingers off the handle; they open on while the hand backs away.
         yield from motion.gripper(world, OPEN, steps=RELEASE_STEPS, orient=orient)
-        yield from leave(world, joint, OPEN)
+        yield from leave(world, joint, OPEN, turn_on=True)
     if not world.holds(goal):
         raise SkillFailed(f"{region} did not open (joint at {world.qpos(joint.id):.3f})")
 
