@@ -26,6 +26,7 @@ from vpro_assets.rollout.policies.oracle.grasp import (
     narrowest,
     plan_grasp,
     side_entry,
+    sloped_close,
     solid_below,
     top_face_up,
 )
@@ -111,6 +112,35 @@ def test_solid_pinch_turns_the_hand_away_from_a_standing_neighbour(scene):
     z0 = s.world.body_pos(obj)[2]
     s.run(pick(s.world, obj), limit=200)
     assert s.world.body_pos(obj)[2] - z0 > 0.05 and s.world.held(obj)
+
+
+def test_a_pinch_of_sides_sloping_in_toward_the_top_closes_gently():
+    """A 1.8 cm tall block 4.8 cm across at its foot, pinched 8 mm over it: narrowing to 2.8 cm at
+    its top (each side 0.56 in per unit of rise, libero_object-06's butter at taper-s3), the fingers
+    close to SLOPED_SQUEEZE_M inside its width and hold there; to 3.6 cm (0.33, taper-s2) or
+    straight-sided, they close fully."""
+
+    def block(top):
+        return [
+            np.r_[
+                _box([-0.05, -0.024, 0.0], [0.05, 0.024, 0.0])[::2],
+                _box([-0.05, -top / 2, 0.018], [0.05, top / 2, 0.018])[::2],
+            ]
+        ]
+
+    pinch = Grasp(np.array([0.0, 0.0, 0.008]), np.array([0.0, 1.0, 0.0]), 0.048, rim=False)
+    assert sloped_close(block(0.028), pinch).close_to == pytest.approx(0.048 - grasp_mod.SLOPED_SQUEEZE_M)
+    assert sloped_close(block(0.036), pinch).close_to is None
+    assert sloped_close(block(0.048), pinch).close_to is None
+
+
+@pytest.mark.slow
+def test_tapered_butter_held_through_the_carry_into_the_basket():
+    """libero_object-06 taper-s3 trial 2: closed fully on its sides sloping in, the butter slid down
+    out of the fingers on the way to the basket (the gap shrinking 1.8 cm in 80 steps) and the episode
+    ran out (4 of 10 trials). Closed gently, it is carried in. The scene is built first."""
+    row = oracle_episode("libero_object-06/target_geometry_variation/taper-s3-v1", 2, build=True)
+    assert row["success"] and row["steps"] < 200
 
 
 def test_side_entry_shifts_the_hand_along_the_wall_until_it_comes_down_beside_the_overhang():
