@@ -2,7 +2,7 @@
 
 LIBERO's `On` of a region (`SiteObject.under`) wants the object's body position at most
 LIBERO_ON_HEIGHT_M over the region's top. An object whose body position stands higher over its
-bottom, as it is held, cannot satisfy it standing: libero_goal-02's inverted wine bottle (its body
+bottom, as it stands before it is taken, cannot satisfy it standing: libero_goal-02's inverted wine bottle (its body
 position is the bottle's base, 15.8 cm over the cap it stands on), set down on the cabinet, stood on
 its cap with the goal unmet (9 of 10 trials; the tenth toppled as it was let go). It is laid down:
 carried with the fingers closing across the line from the arm's base, then, over the region, the
@@ -30,7 +30,7 @@ AIM_TOL_M, AIM_STEPS = 0.01, 40
 
 
 def rise(world: World, held: str) -> float:
-    """How high the held object's body position stands over its lowest point, as it is held."""
+    """How high an object's body position stands over its lowest point, as it stands (or is held)."""
     return float(world.body_pos(held)[2] - world.points(held)[:, 2].min())
 
 
