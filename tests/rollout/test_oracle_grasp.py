@@ -117,8 +117,8 @@ def test_solid_pinch_turns_the_hand_away_from_a_standing_neighbour(scene):
 def test_a_pinch_of_sides_sloping_in_toward_the_top_closes_gently():
     """A 1.8 cm tall block 4.8 cm across at its foot, pinched 8 mm over it: narrowing to 2.8 cm at
     its top (each side 0.56 in per unit of rise, libero_object-06's butter at taper-s3), the fingers
-    close to SLOPED_SQUEEZE_M inside its width and hold there; to 3.6 cm (0.33, taper-s2) or
-    straight-sided, they close fully."""
+    close to SLOPED_SQUEEZE_M inside its width and hold there (8-13 N a finger, not 20); to 3.6 cm
+    (0.33, taper-s2) or straight-sided, they close fully."""
 
     def block(top):
         return [
@@ -135,11 +135,20 @@ def test_a_pinch_of_sides_sloping_in_toward_the_top_closes_gently():
 
 
 @pytest.mark.slow
-def test_tapered_butter_held_through_the_carry_into_the_basket():
+@pytest.mark.parametrize(
+    "case_id, trial",
+    [
+        ("libero_object-06/target_geometry_variation/taper-s3-v1", 2),
+        ("libero_object-01/target_geometry_variation/taper-s3-v1", 0),
+    ],
+)
+def test_tapered_box_held_through_the_carry_into_the_basket(case_id, trial):
     """libero_object-06 taper-s3 trial 2: closed fully on its sides sloping in, the butter slid down
     out of the fingers on the way to the basket (the gap shrinking 1.8 cm in 80 steps) and the episode
-    ran out (4 of 10 trials). Closed gently, it is carried in. The scene is built first."""
-    row = oracle_episode("libero_object-06/target_geometry_variation/taper-s3-v1", 2, build=True)
+    ran out (4 of 10 trials). libero_object-01 taper-s3 trial 0: closed to 2 mm inside its width
+    (1 N a finger), the cream cheese did not come up. Closed to SLOPED_SQUEEZE_M inside, both are
+    carried in. The scenes are built first."""
+    row = oracle_episode(case_id, trial, build=True)
     assert row["success"] and row["steps"] < 200
 
 
