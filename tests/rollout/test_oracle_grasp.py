@@ -115,23 +115,27 @@ def test_solid_pinch_turns_the_hand_away_from_a_standing_neighbour(scene):
 
 
 def test_a_pinch_of_sides_sloping_in_toward_the_top_closes_gently():
-    """A 1.8 cm tall block 4.8 cm across at its foot, pinched 8 mm over it: narrowing to 2.8 cm at
-    its top (each side 0.56 in per unit of rise, libero_object-06's butter at taper-s3), the fingers
-    close to SLOPED_SQUEEZE_M inside its width and hold there (8-13 N a finger, not 20); to 3.6 cm
-    (0.33, taper-s2) or straight-sided, they close fully."""
+    """A 1.8 cm tall block 10 x 4.8 cm at its foot, pinched across its 4.8 cm 8 mm over it: tapered
+    to 5.8 x 2.8 cm at its top (each side 0.56 in per unit of rise across the fingers,
+    libero_object-06's butter at taper-s3), the fingers close to SLOPED_SQUEEZE_M inside its width
+    and hold there (8-13 N a finger, not 20); tapered to 3.6 cm (0.33, taper-s2), straight-sided,
+    or narrowing across the fingers but not along them (its top turned, as a twisted box's), they
+    close fully."""
 
-    def block(top):
+    def block(top, top_length):
         return [
             np.r_[
                 _box([-0.05, -0.024, 0.0], [0.05, 0.024, 0.0])[::2],
-                _box([-0.05, -top / 2, 0.018], [0.05, top / 2, 0.018])[::2],
+                _box([-top_length / 2, -top / 2, 0.018], [top_length / 2, top / 2, 0.018])[::2],
             ]
         ]
 
     pinch = Grasp(np.array([0.0, 0.0, 0.008]), np.array([0.0, 1.0, 0.0]), 0.048, rim=False)
-    assert sloped_close(block(0.028), pinch).close_to == pytest.approx(0.048 - grasp_mod.SLOPED_SQUEEZE_M)
-    assert sloped_close(block(0.036), pinch).close_to is None
-    assert sloped_close(block(0.048), pinch).close_to is None
+    gentle = sloped_close(block(0.028, 0.058), pinch).close_to
+    assert gentle == pytest.approx(0.048 - grasp_mod.SLOPED_SQUEEZE_M)
+    assert sloped_close(block(0.036, 0.075), pinch).close_to is None
+    assert sloped_close(block(0.048, 0.1), pinch).close_to is None
+    assert sloped_close(block(0.028, 0.1), pinch).close_to is None
 
 
 @pytest.mark.slow
