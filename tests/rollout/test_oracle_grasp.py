@@ -26,6 +26,7 @@ from vpro_assets.rollout.policies.oracle.grasp import (
     narrowest,
     plan_grasp,
     side_entry,
+    sloped_close,
     solid_below,
     top_face_up,
 )
@@ -111,6 +112,48 @@ def test_solid_pinch_turns_the_hand_away_from_a_standing_neighbour(scene):
     z0 = s.world.body_pos(obj)[2]
     s.run(pick(s.world, obj), limit=200)
     assert s.world.body_pos(obj)[2] - z0 > 0.05 and s.world.held(obj)
+
+
+def test_a_pinch_of_sides_sloping_in_toward_the_top_closes_gently():
+    """A 1.8 cm tall block 10 x 4.8 cm at its foot, pinched across its 4.8 cm 8 mm over it: tapered
+    to 5.8 x 2.8 cm at its top (each side 0.56 in per unit of rise across the fingers,
+    libero_object-06's butter at taper-s3), the fingers close to SLOPED_SQUEEZE_M inside its width
+    and hold there (8-13 N a finger, not 20); tapered to 3.6 cm (0.33, taper-s2), straight-sided,
+    or narrowing across the fingers but not along them (its top turned, as a twisted box's), they
+    close fully."""
+
+    def block(top, top_length):
+        return [
+            np.r_[
+                _box([-0.05, -0.024, 0.0], [0.05, 0.024, 0.0])[::2],
+                _box([-top_length / 2, -top / 2, 0.018], [top_length / 2, top / 2, 0.018])[::2],
+            ]
+        ]
+
+    pinch = Grasp(np.array([0.0, 0.0, 0.008]), np.array([0.0, 1.0, 0.0]), 0.048, rim=False)
+    gentle = sloped_close(block(0.028, 0.058), pinch).close_to
+    assert gentle == pytest.approx(0.048 - grasp_mod.SLOPED_SQUEEZE_M)
+    assert sloped_close(block(0.036, 0.075), pinch).close_to is None
+    assert sloped_close(block(0.048, 0.1), pinch).close_to is None
+    assert sloped_close(block(0.028, 0.1), pinch).close_to is None
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "case_id, trial",
+    [
+        ("libero_object-06/target_geometry_variation/taper-s3-v1", 2),
+        ("libero_object-01/target_geometry_variation/taper-s3-v1", 0),
+    ],
+)
+def test_tapered_box_held_through_the_carry_into_the_basket(case_id, trial):
+    """libero_object-06 taper-s3 trial 2: closed fully on its sides sloping in, the butter slid down
+    out of the fingers on the way to the basket (the gap shrinking 1.8 cm in 80 steps) and the episode
+    ran out (4 of 10 trials). libero_object-01 taper-s3 trial 0: closed to 2 mm inside its width
+    (1 N a finger), the cream cheese did not come up. Closed to SLOPED_SQUEEZE_M inside, both are
+    carried in. The scenes are built first."""
+    row = oracle_episode(case_id, trial, build=True)
+    assert row["success"] and row["steps"] < 200
 
 
 def test_side_entry_shifts_the_hand_along_the_wall_until_it_comes_down_beside_the_overhang():

@@ -82,7 +82,7 @@ def pick(
         yield from motion.move_to(world, above, OPEN, orient, tol=0.015, max_steps=150, speed=_approach_speed(grasp))
         yield from motion.move_to(world, over + [0, 0, HOVER_M], OPEN, orient, tol=0.01, max_steps=60)
         if grasp.squeeze_to is None:
-            world.hold_grip = CLOSE
+            world.hold_grip = CLOSE if grasp.close_to is None else 0.0  # 0: hold the gentle close's target
             yield from motion.move_to(world, grasp.point + entry, OPEN, orient, tol=0.006, max_steps=80, speed=0.6)
             if entry.any():  # slide in under the overhang, and after the close, back out with the object
                 yield from motion.move_to(
@@ -90,6 +90,8 @@ def pick(
                 )
             if grasp.rim and not entry.any():
                 yield from close_on_wall(world, instance, orient)
+            elif grasp.close_to is not None:
+                yield from squeeze(world, grasp.close_to, orient)
             else:
                 yield from motion.gripper(world, CLOSE, orient=orient)
             if entry.any():
