@@ -13,6 +13,10 @@ leaves clear keeps LIBERO's spot untouched. No clear spot in the region: InitSta
 region, LIBERO's own, is never left). After settling, `disturbed` names a listed object that
 settling moved or tilted, or that touches a set part's fixture: the build rejects that start.
 
+A part the variant does not set but the policy must open (`Placement.clear_of_opened`) is the
+other way round: `opened_sweep` gives the ground it will cover, and `init_gen` starts a turned
+target clear of it (libero_goal-03's upside-down bowl under the top drawer).
+
 Distances are MuJoCo's own contact distances, with the listed object's geom margins raised to the
 clearance for the check (`mj_geomDistance` between the microwave's door panel and the mug, both
 meshes, returned 0 where the door passes more than 1 cm from it).
