@@ -27,7 +27,9 @@
 
 from __future__ import annotations
 
+from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.tasks import get_task
+from vpro_assets.scene import bddl_doc
 from vpro_assets.scene.context import GenContext
 from vpro_assets.scene.plugins import register
 from vpro_assets.scene.pose import LIE
@@ -198,20 +200,60 @@ def receptacle_openness(ctx: GenContext) -> SceneVariant:
 # (libero_spatial-05's bowl over the ramekin, wedged) is drawn again beside it (`start_checks.enclosing`).
 # Only a target LIBERO stands on an object can; those cases are built again, the others keep theirs.
 ENCLOSE_REVISION = "enclose1"
+# Revision OPENED_REVISION: a turned target whose footprint lies under the ground a part the policy
+# must open covers (libero_goal-03's upside-down bowl under the opened top drawer: its one grasp, a
+# pinch of the foot from above, has the wrist against the drawer front) starts clear of it
+# (`Placement.clear_of_opened`). Only the cases of a task that has a part opened get it.
+OPENED_REVISION = "opened1"
 
 
-def enclose_revision(case: dict) -> str:
+def opened_parts(task, base_init: list[str]) -> list[str]:
+    """The regions (or fixtures) of the drawers and doors the policy must open: those the goal
+    opens, and the openable receptacle the target goes into unless LIBERO's init has it open."""
+    already = {p.strip("()").split()[1] for p in base_init if p.strip("()").lower().startswith("open ")}
+    out = [args[0] for pred, *args in task.goal if pred == "open"]
+    if task.openable_receptacle and any(pred == "in" and args[0] == task.target for pred, *args in task.goal):
+        part = f"{task.receptacle}_{task.receptacle_region}" if task.receptacle_region else task.receptacle
+        if part not in already and task.receptacle not in already:
+            out.append(part)
+    return [p for p in dict.fromkeys(out) if p not in already]
+
+
+def object_pose_revision(case: dict) -> str:
+    """ENCLOSE_REVISION where the target stands on an object, OPENED_REVISION where the policy must
+    open a part (never both in the catalog; joined if a task ever has both)."""
     task = get_task(case["task"])
-    return ENCLOSE_REVISION if target_support(case) in {inst for inst, _ in task.objects} else ""
+    revisions = []
+    if target_support(case) in {inst for inst, _ in task.objects}:
+        revisions.append(ENCLOSE_REVISION)
+    if opened_parts(task, bddl_doc.read_base(libero_bridge.bddl_path(task.suite, task.name)).init):
+        revisions.append(OPENED_REVISION)
+    return "+".join(revisions)
 
 
-@register("task_precondition_variation/object_pose", version=2, revision=enclose_revision)
+def _opened_joints(ctx: GenContext) -> tuple[tuple[str, float], ...]:
+    """(joint, value) of each part the policy must open, the value the far edge of LIBERO's open
+    range (as far as the policy may open it)."""
+    out = []
+    openable = [a.name for a in ctx.task.articulations if a.kind == "openable"]
+    for part in opened_parts(ctx.task, ctx.base.bddl.init):
+        fixture = next((f for f in openable if part.startswith(f)), None)
+        if fixture is None:
+            continue
+        opened = ctx.base.object_classes[fixture].object_properties["articulation"]["default_open_ranges"]
+        far = float(max(opened) if min(opened) > closed_value(ctx, fixture) else min(opened))
+        out += [(joint, far) for joint in _part_joints(ctx, fixture, part)]
+    return tuple(out)
+
+
+@register("task_precondition_variation/object_pose", version=2, revision=object_pose_revision)
 def object_pose(ctx: GenContext) -> SceneVariant:
     """The target starts upside down (or lying on its side) at its usual place (or next to it,
     clear of its neighbours)."""
     target = ctx.task.target
     lying = ctx.case["params"].get("state") == "lying"
     turn = {"turn": tuple(float(v) for v in LIE)} if lying else {"invert": True}
+    opened = _opened_joints(ctx)
     return SceneVariant(
         case_id=ctx.case_id,
         generator="task_precondition_variation/object_pose",
@@ -219,6 +261,17 @@ def object_pose(ctx: GenContext) -> SceneVariant:
         objects=list(ctx.base.bddl.objects),
         fixtures=list(ctx.base.bddl.fixtures),
         init=ctx.init_with(),
-        placements=[Placement(target, (0.0, 0.0), margin=0.005, keep_xy=True, clear_of_neighbours=True, **turn)],
-        details={"target": target, "pose": "lying" if lying else "inverted"},
+        placements=[
+            Placement(
+                target,
+                (0.0, 0.0),
+                margin=0.005,
+                keep_xy=True,
+                clear_of_neighbours=True,
+                clear_of_opened=opened,
+                **turn,
+            )
+        ],
+        details={"target": target, "pose": "lying" if lying else "inverted"}
+        | ({"clear_of_opened": [j for j, _ in opened]} if opened else {}),
     )

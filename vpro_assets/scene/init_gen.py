@@ -63,6 +63,16 @@ EXTRA_SETTLE = 3  # seconds of further settling for objects still moving after t
 CUT_TOL_M = 0.0001  # a part may touch its fixture; deeper than this it cuts into it
 MAX_DRAWS = 200  # position draws per placement and attempt
 SUPPORT_GAP = 0.002  # m: a lowered object starts this far above its support
+# Room between an object's footprint and the ground a part the policy opens covers, for the hand
+# to come down to it from above: the Panda's palm reaches 10.5 cm to each side of its grip site
+# along its closing axis (`oracle.hand.HAND_PARTS`), so gripping an upside-down bowl (10.7 cm
+# across) at its foot it ends 5 cm outside the footprint, whichever way the hand is turned; the
+# wrist, 4.4 cm to each side across, stays within it. libero_goal-03's upside-down bowl, its
+# footprint 3 cm under the opened top drawer and its foot 2.4 cm beside the drawer front, could
+# not be picked with the drawer open (the wrist hit the cabinet).
+HAND_ROOM_M = 0.05
+SPOT_REACH_M = 0.25  # how far from its place such an object may start (`_nearest_spot`)
+SPOT_DRAWS = 400  # spots drawn there (libero_goal-03: about 6% of the disc is clear)
 
 
 class InitStateError(VProError):
@@ -107,6 +117,29 @@ def _ring_spot(
     )
 
 
+def _nearest_spot(
+    p: Placement,
+    anchor: np.ndarray,
+    rng: np.random.Generator,
+    offset: np.ndarray,
+    radius: float,
+    others: list[tuple[np.ndarray, np.ndarray]],
+) -> np.ndarray:
+    """Of SPOT_DRAWS origins drawn uniformly in the disc of radius SPOT_REACH_M around `anchor`,
+    the nearest to it whose footprint is clear of `others` (a ring widening from the anchor finds
+    none within 11 cm in libero_goal-03's crowded layout; the nearest clear spot is 19 cm away)."""
+    r = SPOT_REACH_M * np.sqrt(rng.uniform(0.0, 1.0, SPOT_DRAWS))
+    theta = rng.uniform(0.0, 2 * math.pi, SPOT_DRAWS)
+    spots = anchor + np.stack([r * np.cos(theta), r * np.sin(theta)], axis=1)
+    clear = [i for i in np.argsort(r) if _clear(spots[i] + offset, radius, others, p.margin)]
+    if not clear:
+        raise InitStateError(
+            f"no spot for {p.instance} within {SPOT_REACH_M:.2f} m of ({anchor[0]:.3f}, {anchor[1]:.3f}) is clear "
+            f"of its neighbours and of the ground a part the task opens covers ({SPOT_DRAWS} drawn)"
+        )
+    return spots[clear[0]]
+
+
 def _place(
     env,
     variant: SceneVariant,
@@ -149,7 +182,8 @@ def _place(
         offset = centre - qpos[:2]  # the object's origin need not be its footprint's centre
         others = {k: v for k, v in now.items() if k != p.instance and k not in pending}
         if p.keep_xy:
-            xy = _kept_spot(p, qpos[:2].copy(), rng, own, offset, radius, others, base_layout, beside_covered)
+            opened = [box for joint, to in p.clear_of_opened for box in travel.opened_sweep(env, joint, to)]
+            xy = _kept_spot(p, qpos[:2].copy(), rng, own, offset, radius, others, base_layout, beside_covered, opened)
         elif p.take_place_of:
             was = base_layout[p.take_place_of]
             xy = (was["lo"][:2] + was["hi"][:2]) / 2 - offset  # footprint centre on the other's
@@ -285,13 +319,23 @@ def _kept_spot(
     others: dict[str, dict],
     base_layout: dict,
     beside_covered: bool = False,
+    opened: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> np.ndarray:
     """LIBERO's xy of the trial for an object that keeps its place, or (`clear_of_neighbours`)
     a clear spot nearby where it would touch a neighbour there (with `beside_covered`, the object
-    it stands on and covers upside down counts as one)."""
+    it stands on and covers upside down counts as one). `opened`: the ground parts the policy
+    opens cover (`Placement.clear_of_opened`); a footprint closer to it than HAND_ROOM_M moves to
+    the nearest spot clear of it and of the neighbours (`_nearest_spot`); where there is none the
+    attempt fails."""
+    opened = opened or []
+    # What the ring must also keep clear of: the opened ground, grown so that _clear's margin
+    # (p.margin) comes to HAND_ROOM_M from it.
+    grow = HAND_ROOM_M - p.margin
+    sweep = [(lo - grow, hi + grow) for lo, hi in opened]
+    centre = (own["lo"][:2] + own["hi"][:2]) / 2
+    under_opened = not _clear(centre, radius, sweep, p.margin)
     if not (p.clear_of_neighbours and p.instance in base_layout):
         return xy
-    centre = (own["lo"][:2] + own["hi"][:2]) / 2
     # What it stands on (a drawer, a rack, a cookie box) does not count: it stays there.
     floor = base_layout[p.instance]["lo"][2] + start_checks.SUPPORT_TOL
     covered = [
@@ -307,6 +351,11 @@ def _kept_spot(
     if covered:  # the ring starts where the footprint clears what it would cover
         reach = max(float(np.max(v["hi"][:2] - v["lo"][:2])) for v in covered) / 2 + radius + p.margin
         p = dataclasses.replace(p, r_min=reach, r_max=reach + p.r_max)
+    if under_opened:  # out from under it, or no start: the task could not be done from there
+        # Farther away, every object and fixture counts but what it stands on (whose box holds its
+        # footprint's centre): the low ones too (an upside-down bowl came down over the cream cheese).
+        around = [(v["lo"], v["hi"]) for v in others.values() if _clear(centre, 0.0, [(v["lo"], v["hi"])], 0.0)]
+        return _nearest_spot(p, xy, rng, offset, radius, around + sweep)
     if not _clear(centre, radius, neighbours, p.margin):
         # No room nearby in a crowded layout: LIBERO's spot, if it settles.
         with contextlib.suppress(InitStateError):

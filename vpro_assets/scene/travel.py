@@ -13,6 +13,10 @@ leaves clear keeps LIBERO's spot untouched. No clear spot in the region: InitSta
 region, LIBERO's own, is never left). After settling, `disturbed` names a listed object that
 settling moved or tilted, or that touches a set part's fixture: the build rejects that start.
 
+A part the variant does not set but the policy must open (`Placement.clear_of_opened`) is the
+other way round: `opened_sweep` gives the ground it will cover, and `init_gen` starts a turned
+target clear of it (libero_goal-03's upside-down bowl under the top drawer).
+
 Distances are MuJoCo's own contact distances, with the listed object's geom margins raised to the
 clearance for the check (`mj_geomDistance` between the microwave's door panel and the mug, both
 meshes, returned 0 where the door passes more than 1 cm from it).
@@ -27,7 +31,7 @@ from collections.abc import Iterator
 import mujoco
 import numpy as np
 
-from vpro_assets.core.mjgeom import colliding, subtree
+from vpro_assets.core.mjgeom import colliding, geom_corners, subtree
 from vpro_assets.scene import sim
 from vpro_assets.scene.variant import SceneVariant
 
@@ -212,3 +216,28 @@ def disturbed(env, variant: SceneVariant, before: dict[str, np.ndarray]) -> list
         if _near(model, data, _bodies(model, root), touched, math.inf):
             out.append(f"{keep.instance} touches the fixture of a part the variant sets")
     return out
+
+
+def opened_sweep(env, joint_name: str, to: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """World xy boxes (lo, hi) of the ground a part covers on its way from where it stands to `to`
+    (the policy opening it): its collision geoms' box at each sample of the travel (TRAVEL_STEP),
+    at any height, since a hand cannot come down under it either. The part is left where it was."""
+    raw = sim.raw(env)
+    model, data = raw.sim.model._model, raw.sim.data._data
+    joint = raw.sim.model.joint_name2id(joint_name)
+    adr = int(model.jnt_qposadr[joint])
+    bodies = _bodies(model, int(model.jnt_bodyid[joint]))
+    geoms = colliding(model, [g for g in range(model.ngeom) if int(model.geom_bodyid[g]) in bodies])
+    start = float(data.qpos[adr])
+    samples = max(1, math.ceil(abs(to - start) / TRAVEL_STEP[model.jnt_type[joint]]))
+    boxes = []
+    try:
+        for s in range(samples + 1):
+            data.qpos[adr] = start + s / samples * (to - start)
+            mujoco.mj_kinematics(model, data)
+            corners = geom_corners(model, data, geoms)
+            boxes.append((corners.min(0)[:2], corners.max(0)[:2]))
+    finally:
+        data.qpos[adr] = start
+        mujoco.mj_kinematics(model, data)
+    return boxes

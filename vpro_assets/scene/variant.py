@@ -38,6 +38,11 @@ class Placement:
     # same lowest point: on the same support, in the same drawer); no clearance check, since that
     # instance is placed elsewhere first.
     take_place_of: str | None = None
+    # With keep_xy and clear_of_neighbours: parts the task has the policy open, as (joint, value
+    # it is opened to); the footprint starts clear of the ground each one's travel from where it
+    # starts to that value covers, with room for the hand to come down beside it
+    # (`travel.opened_sweep`, `init_gen._kept_spot`), at the nearest clear spot if it is not.
+    clear_of_opened: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
