@@ -16,24 +16,20 @@ from vpro_assets.rollout.episode import EpisodeSettings, run_episode
 from vpro_assets.rollout.policies.oracle import drawer, motion
 from vpro_assets.rollout.policies.oracle import grasp as grasp_mod
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
+from vpro_assets.rollout.policies.oracle.foot import solid_below, top_face_up
 from vpro_assets.rollout.policies.oracle.grasp import (
-    MAX_PINCH_M,
     ROBOT_BASE_XY,
-    SOLID_TOP_M,
     Grasp,
-    above,
     foot_grasp,
-    narrowest,
     plan_grasp,
     side_entry,
     sloped_close,
-    solid_below,
-    top_face_up,
 )
 from vpro_assets.rollout.policies.oracle.hand import WITH_WRIST, reach_height
 from vpro_assets.rollout.policies.oracle.pick import SWAY_M, SWAY_STEPS, close_on_wall, inner_way, pick
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.policy import OraclePolicy, libero_holds
+from vpro_assets.rollout.policies.oracle.shape import MAX_PINCH_M, SOLID_TOP_M, above, narrowest
 from vpro_assets.rollout.policies.oracle.world import World
 
 

@@ -15,15 +15,25 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
+from vpro_assets.rollout.policies.oracle.foot import FOOT_SQUEEZE_M, foot_pinch
 from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS, WITH_WRIST, hand_fits, reach_height
+from vpro_assets.rollout.policies.oracle.shape import (
+    MAX_PINCH_M,
+    NARROW_DEPTH_M,
+    SOLID_TOP_M,
+    above,
+    beyond,
+    extent_middle,
+    narrowest,
+    section,
+    widths,
+)
 from vpro_assets.rollout.policies.oracle.world import World
 
-MAX_PINCH_M = 0.074  # widest object the open fingers (7.8 cm apart) take across
 WALL_INSET_M = 0.012  # the fingers' centre this far inside an object's outer wall
 MIN_RIM_PINCH_M = 0.012  # a wall pinch less deep than this below the rim does not hold
 WALL_DEPTH_M = 0.035  # a wall is pinched this far below its top (deep: a shallow pinch lets a bowl swing out)
@@ -37,24 +47,9 @@ REACH_M, REACH_SHIFT_M = 0.80, 0.035
 WALL_SIDES = 16  # candidate sides of a wide object's wall
 HANDLE_MAX_M = 0.045  # a handle is thinner than this across (a wall cut OUTER_BAND_M deep is wider)
 HANDLE_DIRECTIONS = 72  # directions searched for a handle, 5 degrees apart
-SOLID_TOP_M = 0.025  # a geom over the centre reaching this close to the top makes the top solid
 HANDLE_MIN_HEIGHT_M = 0.02  # a handle is at least this tall
-NARROW_DEPTH_M = 0.03  # deepest pinch below a solid object's top
 FINGER_PAD_HALF_M = 0.01  # the finger pads reach this far below the grip site
 OUTER_BAND_M = 0.03  # a part sticking out toward a side: the object this close to its farthest point
-# A foot pinch (`foot_grasp`). The Panda's finger collision meshes reach 9.3 mm below the grip site,
-# 5 mm below the pads, and are about 1.5 cm thick and 2.2 cm wide; one CLOSE action moves the
-# fingers' target opening 1 cm (robosuite: 25 substeps of 1% of the 8 cm range).
-FINGERTIP_M = 0.0093
-FINGER_THICK_M = 0.015
-FINGER_HALF_WIDTH_M = 0.011
-FOOT_SLICE_M = 0.001  # the foot: the object's top this deep
-FOOT_CLEAR_M = 0.002  # the fingers' footprint starts this far outside the foot
-FOOT_STEP_M = 0.0005
-MIN_FOOT_BAND_M = 0.002  # a foot standing less than this over what is under the fingers is not pinched
-FOOT_SQUEEZE_M = 0.002  # the fingers' target opening at least this far inside the foot (at most 1 cm more)
-# A top face tilted less than this is taken as level: across a 4.6 cm foot it falls under half of FOOT_SLICE_M.
-LEVEL_TILT_RAD = 0.01
 # A side entry (`side_entry`): the shifts along the wall tried.
 ENTRY_STEP_M, ENTRY_MAX_M = 0.005, 0.06
 # A whole pinch whose sides narrow toward the top by more than MAX_SIDE_SLOPE (each side's run per
@@ -88,52 +83,6 @@ class Grasp:
     # A whole pinch of sides that slope in toward the top (`sloped_close`): the fingers' target opening
     # (m), closed to and held there, the hand otherwise as for a full close. None: close fully.
     close_to: float | None = None
-
-
-def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(major, minor) horizontal unit axes of a point cloud."""
-    xy = points[:, :2] - points[:, :2].mean(0)
-    _, vecs = np.linalg.eigh(xy.T @ xy)
-    minor, major = vecs[:, 0], vecs[:, 1]
-    return np.append(major, 0.0), np.append(minor, 0.0)
-
-
-def widths(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(180 x 3 horizontal unit axes, their widths): a point cloud's extent across each direction
-    in 1-degree steps. Swept rather than taken from the principal axes, which miss the narrowest
-    direction of twisted and tapered shapes; half a degree off it adds under 0.004% to a width."""
-    ang = np.radians(np.arange(180))
-    dirs = np.c_[np.cos(ang), np.sin(ang), np.zeros(180)]
-    return dirs, np.ptp(points[:, :2] @ dirs[:, :2].T, axis=0)
-
-
-def narrowest(points: np.ndarray) -> tuple[np.ndarray, float]:
-    """(horizontal unit axis, width) across which a point cloud is narrowest."""
-    dirs, across = widths(points)
-    k = int(np.argmin(across))
-    return dirs[k], float(across[k])
-
-
-def above(hulls: list[np.ndarray], z: float) -> np.ndarray:
-    """The points bounding the parts of convex hulls (each a point array) above height `z`."""
-    return beyond(hulls, np.array([0.0, 0.0, 1.0]), z)
-
-
-def beyond(hulls: list[np.ndarray], direction: np.ndarray, offset: float) -> np.ndarray:
-    """The points bounding the parts of convex hulls (each a point array) beyond `offset` along the
-    unit vector `direction`: their points beyond it and where their chords cross it."""
-    out = []
-    for pts in hulls:
-        reach = pts @ direction
-        up, down = pts[reach >= offset], pts[reach < offset]
-        if not len(up):
-            continue
-        out.append(up)
-        if len(down):
-            a, b = np.repeat(up, len(down), axis=0), np.tile(down, (len(up), 1))
-            ra, rb = a @ direction, b @ direction
-            out.append(a + (b - a) * ((ra - offset) / (ra - rb))[:, None])
-    return np.concatenate(out) if out else np.zeros((0, 3))
 
 
 def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) -> Grasp:
@@ -205,12 +154,6 @@ def sloped_close(hulls: list[np.ndarray], grasp: Grasp) -> Grasp:
     return replace(grasp, close_to=grasp.width - SLOPED_SQUEEZE_M) if tapered else grasp
 
 
-def section(hulls: list[np.ndarray], z: float) -> np.ndarray:
-    """The points bounding an object's (its convex hulls') cross-section at height `z`."""
-    cut = above(hulls, z)
-    return cut[np.abs(cut[:, 2] - z) < 1e-9]
-
-
 def within_reach(point: np.ndarray) -> np.ndarray:
     """A wall pinch's grip point moved toward the arm's base to REACH_M from it (by at most
     REACH_SHIFT_M), or as it is when nearer."""
@@ -273,18 +216,9 @@ def _clear_pinch(world: World, instance: str, pts: np.ndarray, z: float) -> Gras
     if not len(fit):
         return None
     boxes = obstacle_boxes(world, (instance,))
-    points = {int(k): _middle(pts, dirs[k], z) for k in fit}
+    points = {int(k): extent_middle(pts, dirs[k], z) for k in fit}
     k = min(points, key=lambda k: (round(max(z, reach_height(boxes, points[k], dirs[k])), 3), across[k]))
     return Grasp(points[k], dirs[k], float(across[k]), rim=False)
-
-
-def _middle(pts: np.ndarray, axis: np.ndarray, z: float) -> np.ndarray:
-    """The centre of a point cloud's extent along `axis` and across it, at height `z`."""
-    across = np.array([-axis[1], axis[0], 0.0])
-    along_axis, along_across = pts[:, :2] @ axis[:2], pts[:, :2] @ across[:2]
-    point = axis * (along_axis.max() + along_axis.min()) / 2 + across * (along_across.max() + along_across.min()) / 2
-    point[2] = z
-    return point
 
 
 def narrow_top_grasp(world: World, instance: str) -> Grasp | None:
@@ -317,110 +251,19 @@ def hand_stop(boxes: np.ndarray, pts: np.ndarray, z: float) -> float:
     direction it fits across lets the hand come down to `z`; inf when it fits across none."""
     dirs, across = widths(pts)
     fit = np.flatnonzero(across <= MAX_PINCH_M)
-    return min((max(z, reach_height(boxes, _middle(pts, dirs[k], z), dirs[k])) - z for k in fit), default=float("inf"))
+    return min(
+        (max(z, reach_height(boxes, extent_middle(pts, dirs[k], z), dirs[k])) - z for k in fit), default=float("inf")
+    )
 
 
 def foot_grasp(world: World, instance: str) -> Grasp | None:
-    """A gentle pinch of a top too wide for `narrow_top_grasp` because shoulders slope out under it
-    (an inverted akita bowl: a 4.6 cm plus-shaped foot, its arms' ends 1.3 mm over the shoulders'
-    inner edge, the shoulders sloping 35 degrees out to 9 cm, rim on the table). The fingertips
-    (friction 1) on the shoulders squeeze the bowl down and out of the hand, so the fingers' sides
-    take the foot's vertical sides, the fingertips just over the shoulders. Of the directions the
-    foot (its top FOOT_SLICE_M) fits the open fingers across, the one where it stands highest over
-    what lies under the fingers' footprint (across the plus's corners: about 4 mm, where the shoulders
-    under the fingers are lower). The fingers close to just inside the foot and hold there: closed
-    fully, their 20 N press them over the foot's edge. None when the top does not stand over the
-    object's middle, is not solid there (the mouth of an upright bowl a taper narrowed to 7 cm: a
-    ring round the cavity, whose wall slopes out under the fingers, so a gentle squeeze from
-    outside slides up it) or no direction leaves MIN_FOOT_BAND_M. Depths are measured square to
-    the top face (`top_face_up`): an inverted bowl resting 2.4 degrees tilted on a ramekin has its
-    foot's top 2 mm lower on one side, so a level slice of FOOT_SLICE_M was a 2.4 cm crescent off
-    the middle, and a level cut reached the high side's shoulders 1.7 mm under the top."""
-    hulls = world.hulls(instance)
-    top = max(float(h[:, 2].max()) for h in hulls)
-    if solid_below(hulls, top) > SOLID_TOP_M:
+    """The foot of an upside-down object pinched gently (`foot.foot_pinch`): the fingers close to
+    FOOT_SQUEEZE_M inside the foot and hold there (closed fully, their 20 N press them over its edge)."""
+    pinch = foot_pinch(world.hulls(instance))
+    if pinch is None:
         return None
-    up = top_face_up(hulls)
-    top = max(float((h @ up).max()) for h in hulls)  # along `up`: the world top when the face is level
-    foot = beyond(hulls, up, top - FOOT_SLICE_M)
-    dirs, across = widths(foot)
-    # A foot stands over the object's middle: the top of a tilted upright bowl is an arc of its rim.
-    pts = np.concatenate(hulls)
-    middle = (pts.min(0)[:2] + pts.max(0)[:2]) / 2 @ dirs[:, :2].T
-    reach = foot[:, :2] @ dirs[:, :2].T
-    if np.any(middle < reach.min(0) + FOOT_CLEAR_M) or np.any(middle > reach.max(0) - FOOT_CLEAR_M):
-        return None
-    cuts = [beyond(hulls, up, top - depth) for depth in np.arange(FOOT_STEP_M, NARROW_DEPTH_M + 1e-9, FOOT_STEP_M)]
-    best: tuple[float, int] | None = None
-    for k in range(0, len(dirs), 5):
-        if across[k] + 2 * FOOT_CLEAR_M > MAX_PINCH_M:
-            continue
-        band = _foot_band(foot, cuts, dirs[k])
-        if best is None or band > best[0] + 1e-9:
-            best = band, k
-    if best is None or best[0] < MIN_FOOT_BAND_M:
-        return None
-    band, k = best
-    point = _middle(foot, dirs[k], 0.0)
-    face = (top - up[:2] @ point[:2]) / up[2]  # the top face's height over the foot's middle
-    point[2] = face - band + FOOT_STEP_M + FINGERTIP_M
-    return Grasp(point, dirs[k], float(across[k]), rim=False, squeeze_to=float(across[k]) - FOOT_SQUEEZE_M)
-
-
-def top_face_up(hulls: list[np.ndarray]) -> np.ndarray:
-    """The unit normal of an object's top face (its collision geoms' convex hulls): of the hull
-    holding the highest point, its facet nearest level; exactly vertical when that facet tilts less
-    than LEVEL_TILT_RAD (or the hull is flat)."""
-    vertical = np.array([0.0, 0.0, 1.0])
-    highest = max(hulls, key=lambda h: float(h[:, 2].max()))
-    try:
-        facets = ConvexHull(highest).equations
-    except QhullError:
-        return vertical
-    normal = facets[int(np.argmax(facets[:, 2])), :3]
-    normal = normal / np.linalg.norm(normal)
-    return vertical if float(np.arccos(np.clip(normal[2], -1.0, 1.0))) < LEVEL_TILT_RAD else normal
-
-
-def solid_below(hulls: list[np.ndarray], top: float) -> float:
-    """How far below `top` the object (its collision geoms' convex hulls) is first solid on the
-    vertical line through the middle of its extent (inf: nowhere, the line misses every hull). From
-    each hull's facets (`scipy.spatial.ConvexHull`: n . p + d <= 0 inside), the line's highest
-    point inside it."""
-    pts = np.concatenate(hulls)
-    middle = (pts.min(0)[:2] + pts.max(0)[:2]) / 2
-    highest = -np.inf
-    for h in hulls:
-        try:
-            facets = ConvexHull(h).equations
-        except QhullError:  # a flat piece (coplanar points) has no inside
-            continue
-        normal_z, rest = facets[:, 2], facets[:, :2] @ middle + facets[:, 3]
-        level = np.abs(normal_z) < 1e-12
-        if np.any(rest[level] > 1e-12):
-            continue
-        upper = np.min(-rest[normal_z > 0] / normal_z[normal_z > 0], initial=np.inf)
-        lower = np.max(-rest[normal_z < 0] / normal_z[normal_z < 0], initial=-np.inf)
-        if lower <= upper:
-            highest = max(highest, upper)
-    return top - highest
-
-
-def _foot_band(foot: np.ndarray, cuts: list[np.ndarray], axis: np.ndarray) -> float:
-    """How far below the top the fingertips come down beside `foot` (its points) closing along
-    `axis`: the depth of the last of `cuts` (the object above FOOT_STEP_M, 2 * FOOT_STEP_M, ... below
-    its top) with none of its points under the fingers' footprint (from FOOT_CLEAR_M outside the
-    foot, FINGER_THICK_M thick, 2 * FINGER_HALF_WIDTH_M wide)."""
-    across = np.array([-axis[1], axis[0]])
-    along_foot, across_foot = foot[:, :2] @ axis[:2], foot[:, :2] @ across
-    mid_along, half = (along_foot.max() + along_foot.min()) / 2, np.ptp(along_foot) / 2
-    mid_across = (across_foot.max() + across_foot.min()) / 2
-    for n, cut in enumerate(cuts):
-        out = np.abs(cut[:, :2] @ axis[:2] - mid_along) - half - FOOT_CLEAR_M
-        side = np.abs(cut[:, :2] @ across - mid_across)
-        if np.any((out > 0) & (out < FINGER_THICK_M) & (side < FINGER_HALF_WIDTH_M)):
-            return n * FOOT_STEP_M
-    return len(cuts) * FOOT_STEP_M
+    point, axis, width = pinch
+    return Grasp(point, axis, width, rim=False, squeeze_to=width - FOOT_SQUEEZE_M)
 
 
 def outer_part_grasp(world: World, instance: str, toward: np.ndarray) -> Grasp | None:

@@ -14,6 +14,11 @@ HAND_PARTS = ((0.045, 0.01, 0.012, 0.01), (-0.045, 0.01, 0.012, 0.01), (0.0, 0.1
 # axis, which side depends on the yaw, so both): it meets an opened drawer's front over a bowl.
 WITH_WRIST = (*HAND_PARTS, (0.0, 0.09, 0.044, -0.09))
 PART_TOPS = (0.026, 0.026, 0.124, 0.16)  # each part's top over the grip site
+# The Panda's finger collision meshes reach 9.3 mm below the grip site, 5 mm below the pads, and are
+# about 1.5 cm thick and 2.2 cm wide.
+FINGERTIP_M = 0.0093
+FINGER_THICK_M = 0.015
+FINGER_HALF_WIDTH_M = 0.011
 
 Parts = tuple[tuple[float, float, float, float], ...]
 

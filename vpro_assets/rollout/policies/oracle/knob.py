@@ -13,8 +13,9 @@ import numpy as np
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import joint_for
-from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation, principal_axes
+from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
+from vpro_assets.rollout.policies.oracle.shape import principal_axes
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 TURN_STEP_RAD = 0.15  # wrist turn per goal update

@@ -12,14 +12,13 @@ import numpy as np
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.clearance import lift_clear, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import (
-    FINGERTIP_M,
     HOVER_M,
     ROBOT_BASE_XY,
     Grasp,
     grasp_orientation,
     plan_grasp,
 )
-from vpro_assets.rollout.policies.oracle.hand import WITH_WRIST, reach_height
+from vpro_assets.rollout.policies.oracle.hand import FINGERTIP_M, WITH_WRIST, reach_height
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 

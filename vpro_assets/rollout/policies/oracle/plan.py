@@ -27,9 +27,9 @@ from functools import partial
 from vpro_assets.libero.task_record import TABLE_CATEGORIES
 from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, sweep, swing
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for, needs_opening, owner_of
-from vpro_assets.rollout.policies.oracle.grasp import MAX_PINCH_M, narrowest
 from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
+from vpro_assets.rollout.policies.oracle.shape import MAX_PINCH_M, narrowest
 from vpro_assets.rollout.policies.oracle.world import World
 
 PLACEMENT = ("on", "in")
