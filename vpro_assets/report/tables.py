@@ -1,7 +1,8 @@
 """The paper's tables from episode rows, as data first, then Markdown and LaTeX.
 
 Tables (file stems): `category_matrix` (SR per category with drop from Normal, robustness
-categories marked up-arrow, diagnostic ones diamond), `view_reliance` (staleness per stale view,
+categories marked up-arrow, diagnostic ones diamond; with a certificate, the oracle's reachable
+ceiling per category as its last row: `report.ceiling`), `view_reliance` (staleness per stale view,
 availability per retained view), `contradiction` (by attribute), `distractors` (by type) and
 `contact_composition`, `precondition_ambiguity` (openness, object pose; a setting's cell pools
 its variants) and `precondition_ambiguity_variants` (per variant), `geometry` (by deformation
@@ -18,6 +19,8 @@ from typing import Any
 
 from vpro_assets.benchmark import taxonomy as tx
 from vpro_assets.report import scene_tables
+from vpro_assets.report.ceiling import LABEL as CEILING_LABEL
+from vpro_assets.report.ceiling import Ceiling
 from vpro_assets.report.metrics import Rate, group, normal_rate, rate
 from vpro_assets.report.table_model import (
     DIAG_MARK,
@@ -56,7 +59,15 @@ def _by_param(
     return table
 
 
-def category_matrix(rows: list[dict]) -> Table:
+def _average(cells: list[Cell]) -> str | Cell:
+    srs = [c.rate.sr for c in cells if c.rate.sr is not None]
+    drops = [c.drop for c in cells if c.drop is not None]
+    if not srs:
+        return Cell(Rate(0, 0))
+    return f"{sum(srs) / len(srs):.2f}" + (f" ↓{sum(drops) / len(drops):.1f}" if drops else "")
+
+
+def category_matrix(rows: list[dict], ceiling: Ceiling | None = None) -> Table:
     cats = list(tx.CATEGORIES)
     present = {r["category"] for r in rows}
     cats = [c for c in cats if c.id in present] or cats
@@ -74,11 +85,16 @@ def category_matrix(rows: list[dict]) -> Table:
     for pid in policies(rows):
         prow = [r for r in rows if r["policy_id"] == pid]
         cells = [cell([r for r in prow if r["category"] == c.id], prow) for c in cats]
-        srs = [c.rate.sr for c in cells if c.rate.sr is not None]
-        drops = [c.drop for c in cells if c.drop is not None]
-        overall = Cell(Rate(0, 0)) if not srs else None
-        avg = f"{sum(srs) / len(srs):.2f}" + (f" ↓{sum(drops) / len(drops):.1f}" if drops else "") if srs else "–"
-        table.rows.append([pid, Cell(normal_rate(prow))] + cells + [avg if overall is None else overall])
+        table.rows.append([pid, Cell(normal_rate(prow))] + cells + [_average(cells)])
+    if ceiling is not None:
+        cells = [Cell(ceiling.categories.get(c.id, Rate(0, 0))) for c in cats]
+        table.rows.append([CEILING_LABEL, Cell(ceiling.normal)] + cells + [_average(cells)])
+        table.note += (
+            f" {CEILING_LABEL}: the privileged oracle's certified success on the same cases (solvability.json: "
+            "a scene case its own entry, an observation case its task's Normal baseline; each entry once), "
+            "the reachable ceiling per category"
+            + (f"; {len(ceiling.missing)} case(s) not in the certificate left out." if ceiling.missing else ".")
+        )
     return table
 
 
@@ -153,10 +169,10 @@ def suites_table(rows: list[dict]) -> Table:
 
 
 # Long on purpose: the list of the paper's tables, in the report's order.
-def all_tables(rows: list[dict]) -> list[Table]:
+def all_tables(rows: list[dict], ceiling: Ceiling | None = None) -> list[Table]:
     phases = {p: p.replace("_", "-") for p in tx.PHASES}
     return [
-        category_matrix(rows),
+        category_matrix(rows, ceiling),
         view_reliance(rows),
         _by_param(
             "Success rate (%) under Cross-View Contradiction, by attribute",

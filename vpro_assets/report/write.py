@@ -5,9 +5,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+from vpro_assets.benchmark import certificate as cert
 from vpro_assets.core.atomic import write_text_atomic
 from vpro_assets.core.errors import VProError
 from vpro_assets.libero.bridge import SIMULATOR_PACKAGES, simulator_label
+from vpro_assets.report.ceiling import ceiling
 from vpro_assets.report.plots import write_plots
 from vpro_assets.report.tables import LATEX_PREAMBLE, all_tables
 from vpro_assets.report.vla_eval_results import is_vla_eval_results, read_vla_eval
@@ -33,7 +35,10 @@ def write_report(
     run_ids: Sequence[str] | None = None,
     plots: bool = True,
     pool_simulators: bool = False,
+    certificate: Path | None = None,
 ) -> dict:
+    """`certificate`: a solvability certificate whose oracle success on the same cases is the
+    category matrix's ceiling row (None: no such row)."""
     results, out = Path(results), Path(out)
     if is_vla_eval_results(results):  # a vla-eval results directory (docs/vla-eval.md)
         runs, all_rows = read_vla_eval(results)
@@ -58,7 +63,8 @@ def write_report(
             + "; ".join(f"{label}: {n} episode(s)" for label, n in sorted(simulators.items()))
             + "); choose runs of one with --run, or pool them with --pool-simulators"
         )
-    tables = all_tables(rows)
+    reachable = ceiling(rows, cert.load(certificate)) if certificate is not None else None
+    tables = all_tables(rows, reachable)
     header = [
         "# LIBERO-VPro report",
         "",
@@ -76,6 +82,11 @@ def write_report(
             f"- `{r['run_id']}`: policy `{r['policy_id']}` ({r['policy_spec']}), {r['trials']} trial(s)/case, "
             f"resolution {s['resolution']}, {s['wait_steps']} wait steps, max steps "
             f"{s['max_steps_override'] or s['max_steps']}"
+        )
+    if reachable is not None:
+        header.append(
+            f"- oracle ceiling: `{certificate}`"
+            + (f" ({len(reachable.missing)} case(s) of these rows not certified)" if reachable.missing else "")
         )
     md = "\n".join(header) + "\n\n" + "\n".join(t.markdown() for t in tables)
     out.mkdir(parents=True, exist_ok=True)
