@@ -12,6 +12,13 @@ x; along x, then y) and a few hand yaws per leg (fingers across the push first: 
 push takes the one whose hand and object sweep through the fewest obstacles (objects, then their geoms; each gripper geom's box
 swept on its own), preferring the
 straight path on a tie. LIBERO's `On` check ends the last leg.
+
+Far out, the arm's reach decides first (libero_goal-05 familiar_position: the plate 0.84-0.86 m from
+the arm's base, its far rim 0.92 m; the hand pointing down, driven at full action toward the far
+rim, stops 0.84-0.85 m out and the plate does not move). Routes whose pushing hand (at the leading rim's inside) stays within PUSH_REACH_M come
+before the others; the fingers come down no farther out than that, anywhere inside the object before
+its leading rim (they push that rim wherever they start); and beyond `grasp.REACH_M` the hand tips
+outward, which brings the grip site 1-2 cm farther at the table's height.
 """
 
 from __future__ import annotations
@@ -20,10 +27,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vpro_assets.core.mjgeom import geom_corners
+from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_pieces
-from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation
+from vpro_assets.rollout.policies.oracle.grasp import REACH_M, ROBOT_BASE_XY, grasp_orientation
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, Actions
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
@@ -38,6 +45,14 @@ YAWS_DEG = (0.0, 90.0, 45.0, -45.0)  # finger axis relative to across the push, 
 PATH_SAMPLES = 10
 INSIDE_CHOICES_M = (INSIDE_M, 0.05, 0.07, 0.09)  # deeper starts keep a hand along the push off what is behind
 RIM_M = 0.015  # a hand pushing from inside reaches at most this far inside the object's leading edge
+# A push from inside starts at most PUSH_REACH_M from the arm's base, else farther along the push, at
+# most to START_BEFORE_RIM_M before the leading rim's inside: the fingers push that rim whatever their
+# start inside the object. A start beyond the reach of a hand pointing down (`grasp.REACH_M`) is
+# pushed from with the hand tipped REACH_PITCH_DEG outward, away from the arm's base: pointing down,
+# the grip site sagged to 0.84-0.85 m 1 cm over the table; tipped 20 degrees it came to 0.86 m within
+# 3 mm at 2.5 cm over it, its lowest point 2 cm under the grip site as pointing down. Started 0.85 m
+# out, the tipped hand straightened the elbow (joint 4 at its limit) and stuck there.
+PUSH_REACH_M, START_BEFORE_RIM_M, REACH_PITCH_DEG = 0.83, 0.02, 20.0
 
 
 @dataclass(frozen=True)
@@ -112,28 +127,70 @@ def _leg(
     return best[1], best[2]
 
 
+def beyond_reach(world: World, obj: str, frm: np.ndarray, to: np.ndarray) -> bool:
+    """Whether a hand pushing the object's leading rim from inside (`push_leg`) along frm -> to goes
+    farther than PUSH_REACH_M from the arm's base on the way. A plate 0.86 m out pushed first
+    across the arm kept the stretched hand there, and stopped (libero_goal-05 familiar_position)."""
+    direction = _unit(to - frm)
+    pos = world.body_pos(obj)[:2]
+    front = float(((world.points(obj)[:, :2] - pos) @ direction).max()) - RIM_M
+    t = np.linspace(0.0, 1.0, PATH_SAMPLES)[:, None]
+    hands = frm + t * (to - frm) + direction * front
+    return bool(np.any(np.linalg.norm(hands - ROBOT_BASE_XY, axis=1) > PUSH_REACH_M))
+
+
 def push_path(world: World, obj: str, target: np.ndarray) -> list[Leg]:
-    """The legs of the push with the fewest obstacles on the way (the straight path on a tie)."""
+    """The legs of the push with the fewest obstacles on the way (the straight path on a tie), of
+    those that keep the pushing hand within reach if any do."""
     boxes, geoms = obstacle_pieces(world, (obj,))
     owners = [world.root_name(g) for g in geoms]  # the object or fixture of each box
     hand = hand_points(world)
     pos = world.body_pos(obj)[:2]
     routes = [[target], [np.array([pos[0], target[1]]), target], [np.array([target[0], pos[1]]), target]]
-    best: tuple[tuple[int, int], list[Leg]] | None = None
+    best: tuple[tuple[bool, int, int], list[Leg]] | None = None
     for route in routes:
         hits: set = set()
-        legs, frm = [], pos
+        legs, frm, out = [], pos, False
         for way in route:
             if np.linalg.norm(way - frm) < MIN_LEG_M:
                 continue
             leg_hits, leg = _leg(world, obj, frm, way, boxes, hand, owners, geoms)
             hits |= leg_hits
+            out = out or beyond_reach(world, obj, frm, way)
             legs.append(leg)
             frm = way
-        score = (len({owners[h] for h in hits}), len({geoms[h] for h in hits}))  # objects met, then geoms met
+        # Within reach first, then objects met, then geoms met.
+        score = (out, len({owners[h] for h in hits}), len({geoms[h] for h in hits}))
         if legs and (best is None or score < best[0]):
             best = (score, legs)
     return best[1] if best else [Leg(target, grasp_orientation(world, np.array([0.0, 1.0, 0.0])), INSIDE_M)]
+
+
+def within_reach(start: np.ndarray, direction: np.ndarray, most: float) -> np.ndarray:
+    """The push's start `start` (xy) moved along `direction` (a unit vector) until it is within
+    PUSH_REACH_M of the arm's base, by at most `most`; as it is when already within. A plate 0.86 m
+    out (libero_goal-05 familiar_position) has its far rim beyond the hand's reach and its leading rim
+    within it, and the start that reaches nothing left the plate unmoved."""
+    off = start - ROBOT_BASE_XY
+    if float(np.linalg.norm(off)) <= PUSH_REACH_M or most <= 0.0:
+        return start
+    # The smallest s >= 0 with |off + s * direction| = PUSH_REACH_M (the nearer root), else the
+    # point of the line nearest the base when the line passes outside.
+    b = float(off @ direction)
+    disc = b * b - (float(off @ off) - PUSH_REACH_M**2)
+    s = -b - np.sqrt(disc) if disc >= 0.0 else -b
+    return start + direction * float(np.clip(s, 0.0, most))
+
+
+def tipped_out(orient: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """`orient` (pointing down) tipped REACH_PITCH_DEG about the horizontal axis across the line from
+    the arm's base to `xy`, the fingertips outward, where `xy` lies beyond REACH_M; else `orient`."""
+    out = xy - ROBOT_BASE_XY
+    dist = float(np.linalg.norm(out))
+    if dist <= REACH_M:
+        return orient
+    axis = np.array([out[1], -out[0], 0.0]) / dist  # turning about it takes -z toward `out`
+    return quat_matrix(axis_angle_quat(axis, np.radians(REACH_PITCH_DEG))) @ orient
 
 
 def push_leg(world: World, obj: str, leg: Leg, done, lead_from_hand: bool = False) -> Actions:
@@ -146,9 +203,14 @@ def push_leg(world: World, obj: str, leg: Leg, done, lead_from_hand: bool = Fals
     pos = world.body_pos(obj)[:2]
     direction = _unit(leg.to - pos)
     reach = back_reach(world, obj, direction, leg.inside)
-    start = np.append(pos - direction * reach, world.box(obj).lo[2] + CONTACT_Z_M)
-    yield from motion.move_to(world, start + [0, 0, 0.10], CLOSE, leg.orient, tol=0.012, max_steps=150)
-    yield from motion.move_to(world, start, CLOSE, leg.orient, tol=0.008, max_steps=80, speed=0.6)
+    start_xy = pos - direction * reach
+    if lead_from_hand:
+        front = float(((world.points(obj)[:, :2] - pos) @ direction).max()) - RIM_M - START_BEFORE_RIM_M
+        start_xy = within_reach(start_xy, direction, reach + front)
+    orient = tipped_out(leg.orient, start_xy) if lead_from_hand else leg.orient
+    start = np.append(start_xy, world.box(obj).lo[2] + CONTACT_Z_M)
+    yield from motion.move_to(world, start + [0, 0, 0.10], CLOSE, orient, tol=0.012, max_steps=150)
+    yield from motion.move_to(world, start, CLOSE, orient, tol=0.008, max_steps=80, speed=0.6)
     moved_at, moved_from = 0, world.body_pos(obj)[:2]
     for k in range(PUSH_STEPS):
         if done():
@@ -170,8 +232,8 @@ def push_leg(world: World, obj: str, leg: Leg, done, lead_from_hand: bool = Fals
             front = float(((world.points(obj)[:, :2] - pos) @ unit).max()) - RIM_M
             along = min(float((world.eef()[:2] - pos) @ unit) + STEP_AHEAD_M, front)
             aim = np.append(pos + unit * along, start[2])
-        yield motion.action_to(world, aim, CLOSE, leg.orient, speed=0.5)
-    yield from motion.move_to(world, world.eef() + [0, 0, 0.08], CLOSE, leg.orient, tol=0.02, max_steps=30)
+        yield motion.action_to(world, aim, CLOSE, orient, speed=0.5)
+    yield from motion.move_to(world, world.eef() + [0, 0, 0.08], CLOSE, orient, tol=0.02, max_steps=30)
 
 
 def push_to(world: World, obj: str, region: str) -> Actions:
