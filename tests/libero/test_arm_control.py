@@ -95,8 +95,8 @@ def test_arm_control_is_robosuites_substep_for_substep():
 
 def test_every_arm_of_libero_is_handled_and_kept_until_a_reset():
     """LIBERO's Panda with OSC_POSE takes the written-out controller and gripper, not the fallback;
-    the env keeps its `Arms` from one control step to the next, and a reset (new controllers) finds
-    them anew."""
+    the env keeps its `Arms` from one control step to the next, drops them at a hard reset (they hold
+    the model it replaces) and finds them anew after it (new model, robots and controllers)."""
     task = get_task("libero_goal-03")
     env = make_env(task, render=False)
     try:
@@ -106,7 +106,8 @@ def test_every_arm_of_libero_is_handled_and_kept_until_a_reset():
         assert [(arm.osc, arm.panda_gripper) for arm in arms.arms] == [(True, True)]
         env.step(np.zeros(7))
         assert arm_control.Arms.of(env.env) is arms
-        seeded_reset(env, 6)
+        seeded_reset(env, 6)  # a hard reset: a new model, and the kept arms (holding the old one) dropped
+        assert "_vpro_arms" not in vars(env.env)
         again = arm_control.Arms.of(env.env)
         assert again is not arms and again is not None
         assert again.arms[0].controller is env.env.robots[0].controller

@@ -46,6 +46,12 @@ def _robosuite(module: str, name: str):
     return getattr(importlib.import_module(module), name)
 
 
+def forget(inner) -> None:
+    """Drop the arms an env keeps (`Arms.of`): they hold its model and data, which a hard reset is
+    about to replace (`physics.physics_env` calls this; elsewhere they go at the next control step)."""
+    inner.__dict__.pop("_vpro_arms", None)
+
+
 @dataclass
 class _Arm:
     robot: Any  # robosuite objects: untyped
