@@ -5,7 +5,8 @@ Three ways through LIBERO's control step (observables, reward and success includ
   mj_forward again), mj_step (a third forward inside);
 - `split`: mj_step1, robosuite's controllers with their forward skipped, mj_step2;
 - `split+lean`: the same, with the arm control between policy steps from `libero.arm_control`
-  (the toolkit's step);
+  (the toolkit's step: its numba kernel, `libero.osc_kernel`, where it has one);
+- `split+lean numpy`: the same with `arm_control`'s NumPy path (what runs where the kernel does not);
 - `split+lean@REV` (`--against REV`): the same with `libero/arm_control.py` as it was at git
   revision REV, loaded beside this tree's (old and new arm control side by side in one process).
 Each round times `--steps` control steps of every variant in turn on one env (a seeded sequence of
@@ -21,6 +22,7 @@ from __future__ import annotations  # noqa: I001 (vpro_assets before numpy: its 
 
 import argparse
 import contextlib
+import copy
 import importlib.util
 import json
 import subprocess
@@ -84,10 +86,21 @@ def variant(name: str):
         arm_control.Arms.of = classmethod(lambda cls, inner: None)
     elif name in AGAINST:
         physics.arm_control = AGAINST[name]
+    elif name == "split+lean numpy":
+        arm_control.Arms.of = classmethod(lambda cls, inner: _numpy_path(ARMS(inner)))  # type: ignore[method-assign,assignment]
     try:
         yield
     finally:
         physics._substeps, arm_control.Arms.of, physics.arm_control = SPLIT, ARMS, arm_control
+
+
+def _numpy_path(arms):
+    """The env's kept arms without the kernel (a copy: the env keeps its own)."""
+    if arms is None:
+        return None
+    arms = copy.copy(arms)
+    arms.kernel = None
+    return arms
 
 
 def control_steps(task_key: str, steps: int, rounds: int) -> dict:
@@ -97,7 +110,9 @@ def control_steps(task_key: str, steps: int, rounds: int) -> dict:
     env.set_init_state(libero_init_states(task)[0])
     rng = np.random.default_rng(0)
     actions = [np.concatenate([rng.uniform(-0.3, 0.3, 6), [1.0 if (i // 30) % 2 else -1.0]]) for i in range(steps)]
-    times: dict[str, list[float]] = {"robosuite": [], "split": [], **{k: [] for k in AGAINST}, "split+lean": []}
+    times: dict[str, list[float]] = {
+        "robosuite": [], "split": [], **{k: [] for k in AGAINST}, "split+lean numpy": [], "split+lean": []
+    }  # fmt: skip
     for _ in range(rounds):
         for name, out in times.items():
             with variant(name):
@@ -140,17 +155,18 @@ def main() -> None:
         AGAINST[f"split+lean@{args.against}"] = load_arm_control(args.against)
     old = next(iter(AGAINST), None)
     raw = {}
-    columns = ["robosuite", "split", *AGAINST, "split+lean"]
+    columns = ["robosuite", "split", *AGAINST, "split+lean numpy", "split+lean"]
     print(
         "| task | "
         + " | ".join(f"{c} ms/step" for c in columns)
         + " | robosuite / split+lean"
         + (f" | {old} / split+lean" if old else "")
+        + " | split+lean numpy / split+lean"
         + " | episode s: "
-        + " / ".join(c for c in columns if c != "split")
+        + " / ".join(c for c in columns if c not in ("split", "split+lean numpy"))
         + " | ratios |"
     )
-    print("|---|" + "---:|" * (len(columns) + 1 + bool(old)) + "---|---|")
+    print("|---|" + "---:|" * (len(columns) + 2 + bool(old)) + "---|---|")
     for key in args.task:
         steps = control_steps(key, args.steps, args.rounds)
         med = {k: float(np.median(v)) for k, v in steps.items()}
@@ -158,12 +174,14 @@ def main() -> None:
         raw[key] = {"control_step_ms": steps, "episode_s": eps}
         ep, ep_ratio = "-", "-"
         if eps:
-            names = [c for c in columns if c != "split"]
+            names = [c for c in columns if c in eps]
             ep = " / ".join(f"{float(np.median(eps[c])):.2f}" for c in names) + f" ({eps['steps']} steps)"
             ep_ratio = " / ".join(f"{_ratio(eps, c, 'split+lean'):.3f}" for c in names[:-1])
         cells = " | ".join(f"{med[c]:.2f}" for c in columns)
-        ratios = f"{_ratio(steps, 'robosuite', 'split+lean'):.2f}" + (
-            f" | {_ratio(steps, old, 'split+lean'):.3f}" if old else ""
+        ratios = (
+            f"{_ratio(steps, 'robosuite', 'split+lean'):.2f}"
+            + (f" | {_ratio(steps, old, 'split+lean'):.3f}" if old else "")
+            + f" | {_ratio(steps, 'split+lean numpy', 'split+lean'):.3f}"
         )
         print(f"| {key} | {cells} | {ratios} | {ep} | {ep_ratio} |", flush=True)
     if args.json:

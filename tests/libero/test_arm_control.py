@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+import pytest
 
-from vpro_assets.libero import arm_control, physics
+from vpro_assets.libero import arm_control, osc_kernel, physics
 from vpro_assets.libero.env import libero_init_states, make_env
 from vpro_assets.libero.settled import seeded_reset
 from vpro_assets.libero.tasks import get_task
@@ -76,12 +77,18 @@ def _substep_states(task_key: str, steps: int, lean: bool) -> list:
         env.close()
 
 
-def test_arm_control_is_robosuites_substep_for_substep():
+@pytest.mark.parametrize("path", ["kernel", "numpy"])
+def test_arm_control_is_robosuites_substep_for_substep(path, monkeypatch):
     """libero_goal-03 (drawers, the bowl and the plate in contact) over 40 control steps of large
     actions: after each of the 1,000 substeps qpos, qvel, ctrl, act and qacc_warmstart, the torques,
     the gripper's action and every attribute the controller's update sets (with their memory order,
-    which decides the numba kernels' compiled version) equal robosuite's."""
+    which decides the numba kernels' compiled version) equal robosuite's; with `osc_kernel`'s
+    kernel and with the NumPy path taken where it is not at hand."""
     reference = _substep_states("libero_goal-03", 40, lean=False)
+    if path == "numpy":
+        monkeypatch.setattr(osc_kernel, "kernel", lambda: None)
+    else:
+        assert osc_kernel.kernel() is not None, "numpy's OpenBLAS or MuJoCo's C API not found here"
     lean = _substep_states("libero_goal-03", 40, lean=True)
     assert len(reference) == len(lean) == 1000
     for n, (ref, got) in enumerate(zip(reference, lean, strict=True)):
