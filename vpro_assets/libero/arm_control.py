@@ -4,19 +4,32 @@ robosuite 1.4 runs the arm's controller at every one of a control step's 25 subs
 policy steps the action, the goal and every index are fixed, yet each substep looks up the
 end-effector site by name five times, computes each site Jacobian twice (once for the Jacobian,
 once inside each site velocity), checks the action against limits rebuilt by three property calls,
-and reads the torque and gripper ranges anew: about half of a substep's Python. `Arms` keeps the
-indices and ranges of an env's arms once per control step and runs, per substep:
+reads the torque and gripper ranges anew, and copies arrays it only reads: about half of a
+substep's Python. `Arms` keeps the indices, ranges and MuJoCo output buffers of an env's arms
+(found once, kept on the env until a reset makes new controllers) and runs, per substep:
 
 - `Controller.update` with one `mj_jacSite` call for both Jacobians and no name lookups, assigning
   the same attributes from the same NumPy operations (same values, bit for bit);
-- the controller's own `run_controller` (robosuite's OSC math, its numba kernels, unchanged);
-- `SingleArm.control`'s clipping, gripper action (the gripper's own stateful `format_action`) and
-  actuator writes, from the kept ranges.
+- the OSC controller's `run_controller` written out (`Arms.osc_torques`): robosuite's numba kernels
+  on the same arrays, its `np.dot` calls on the same operands, its elementwise operations in the
+  same order, without the copies of arrays it only reads;
+- where `osc_kernel` has its kernel (numpy's bundled OpenBLAS, robosuite's numba, MuJoCo's C API:
+  this toolkit's environment), those two in one numba call instead (`Arms.osc_substep`, half the
+  time of the NumPy path): the same operations again, numpy's own `cblas_dgemv` for its `np.dot`;
+- `SingleArm.control`'s clipping, gripper action (PandaGripper's `format_action`, its step kept
+  for the control step) and actuator writes, from the kept ranges.
+
+Every operation that rounds is robosuite's own, on the same operands in the same memory order (the
+numba kernels compile one version per layout, and BLAS rounds by layout too); what changed is
+only lookups, copies and allocations. So states are robosuite's bit for bit:
+tests/libero/test_arm_control.py compares every substep's state, controls and controller
+attributes with robosuite's `SingleArm.control`, tests/libero/test_physics.py the whole step.
 
 Policy steps (the first substep of a control step: goal set, proprioceptive buffers pushed) run
 robosuite's own `_pre_action`. Anything else than single arms with robosuite's base `update` and
-`SingleArm.control` runs robosuite's own code at every substep. Used by `physics._substeps` only;
-tests/libero/test_physics.py holds the whole step to robosuite's, bit for bit.
+`SingleArm.control` runs robosuite's own code at every substep; another controller (or OSC with
+variable gains or interpolators) its own `run_controller`, another gripper its own
+`format_action`. Used by `physics._substeps` only.
 """
 
 from __future__ import annotations
@@ -28,9 +41,20 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from vpro_assets.libero import osc_kernel
+
+# np.clip's own ufunc: np.clip reaches it through three Python calls (ndarray.clip, _methods._clip)
+_CLIP = np.core.umath.clip  # type: ignore[attr-defined]  # numpy < 2 (pyproject.toml)
+
 
 def _robosuite(module: str, name: str):
     return getattr(importlib.import_module(module), name)
+
+
+def forget(inner) -> None:
+    """Drop the arms an env keeps (`Arms.of`): they hold its model and data, which a hard reset is
+    about to replace (`physics.physics_env` calls this; elsewhere they go at the next control step)."""
+    inner.__dict__.pop("_vpro_arms", None)
 
 
 @dataclass
@@ -38,7 +62,7 @@ class _Arm:
     robot: Any  # robosuite objects: untyped
     controller: Any
     site: int
-    qpos_index: np.ndarray  # the controller's index lists as arrays, converted once per control step
+    qpos_index: np.ndarray  # the controller's index lists as arrays, converted once
     qvel_index: np.ndarray
     arm_actuators: np.ndarray
     torque_low: np.ndarray
@@ -47,6 +71,23 @@ class _Arm:
     gripper_bias: np.ndarray
     gripper_weight: np.ndarray
     gripper_slice: slice
+    jacp: np.ndarray  # mj_jacSite's and mj_fullM's outputs, written whole at each substep
+    jacr: np.ndarray
+    mass_matrix: np.ndarray
+    osc: bool  # robosuite's OSC `run_controller` as written out in `Arms.osc_torques`
+    panda_gripper: bool  # the gripper's `format_action` is PandaGripper's (`Arms.grip`)
+
+
+def _handled_osc(ctrl) -> bool:
+    """Whether `Arms.osc_torques` is this controller's `run_controller`: robosuite's OSC class itself
+    with fixed gains and no interpolators (LIBERO's OSC_POSE and OSC_POSITION)."""
+    osc = _robosuite("robosuite.controllers.osc", "OperationalSpaceController")
+    return (
+        type(ctrl).run_controller is osc.run_controller
+        and ctrl.interpolator_pos is None
+        and ctrl.interpolator_ori is None
+        and ctrl.impedance_mode == "fixed"
+    )
 
 
 class Arms:
@@ -56,15 +97,49 @@ class Arms:
     def __init__(self, inner, arms: list[_Arm]):
         self.model, self.data = inner.sim.model._model, inner.sim.data._data
         self.arms = arms
+        # MjData's arrays, looked up once: each attribute access makes a new view of the same
+        # memory, which MuJoCo never moves during a data's life
+        data = self.data
+        self.site_xpos, self.site_xmat, self.qpos, self.qvel = data.site_xpos, data.site_xmat, data.qpos, data.qvel
+        self.qM, self.qfrc_bias, self.ctrl = data.qM, data.qfrc_bias, data.ctrl
+        self.grip_steps: dict[int, np.ndarray] = {}  # per arm: the gripper's step in this control step
+        self.kernel = osc_kernel.kernel()  # None: the NumPy path below
+        self.addresses = (self.model._address, self.data._address) if self.kernel is not None else (0, 0)
+        # robosuite's numba kernels as its OSC module binds them (`from control_utils import *`)
+        osc = importlib.import_module("robosuite.controllers.osc")
+        self.orientation_error = osc.orientation_error
+        self.opspace_matrices = osc.opspace_matrices
+        self.nullspace_torques = osc.nullspace_torques
 
     @classmethod
     def of(cls, inner) -> Arms | None:
+        """The env's arms for this control step: those of its previous control step while the env
+        keeps its model, data, robots, controllers and grippers (a reset makes new controllers, a
+        hard reset new everything), else found anew (about 0.2 ms, mostly robosuite's name lookups)."""
+        key = (id(inner.sim.model._model), id(inner.sim.data._data)) + tuple(
+            (id(robot), id(robot.controller), id(getattr(robot, "gripper", None))) for robot in inner.robots
+        )
+        # the kept Arms references every object of the key, so no id in it can be reused meanwhile
+        kept = getattr(inner, "_vpro_arms", None)
+        if kept is not None and kept[0] == key:
+            arms = kept[1]
+        else:
+            arms = cls.find(inner)
+            inner._vpro_arms = (key, arms)
+        if arms is not None:
+            arms.grip_steps.clear()  # a new control step, a new action
+        return arms
+
+    @classmethod
+    def find(cls, inner) -> Arms | None:
         single_arm = _robosuite("robosuite.robots.single_arm", "SingleArm")
         base_update = _robosuite("robosuite.controllers.base_controller", "Controller").update
         libero_env = _robosuite("libero.libero.envs.bddl_base_domain", "BDDLBaseDomain")
+        panda_gripper = _robosuite("robosuite.models.grippers.panda_gripper", "PandaGripper")
         if type(inner)._pre_action is not libero_env._pre_action:
             return None
         model = inner.sim.model
+        nv = model.nv
         arms, cutoff = [], 0
         for robot in inner.robots:
             ctrl = robot.controller
@@ -89,6 +164,12 @@ class Arms:
                     gripper_bias=0.5 * (ctrl_range[:, 1] + ctrl_range[:, 0]),
                     gripper_weight=0.5 * (ctrl_range[:, 1] - ctrl_range[:, 0]),
                     gripper_slice=slice(cutoff + dim, cutoff + robot.action_dim),
+                    jacp=np.zeros((3, nv)),
+                    jacr=np.zeros((3, nv)),
+                    mass_matrix=np.zeros((nv, nv)),
+                    osc=_handled_osc(ctrl),
+                    panda_gripper=robot.has_gripper
+                    and type(robot.gripper).format_action is panda_gripper.format_action,
                 )
             )
             cutoff += robot.action_dim
@@ -96,36 +177,101 @@ class Arms:
 
     def update(self, arm: _Arm) -> None:
         """robosuite's `Controller.update` (forced), the same attributes from the same operations.
-        Where robosuite copies a fancy-indexed array again (`np.array(x[index])`, which keeps its
-        memory order), the fancy-indexed array itself: the same values in the same order (C or F).
-        The memory order matters: robosuite's numba kernels compile one version per layout, and
-        their BLAS calls round differently (its mass-matrix block is F-ordered, so it is taken as
-        robosuite takes it)."""
-        ctrl, data, nv = arm.controller, self.data, self.model.nv
-        ctrl.ee_pos = np.array(data.site_xpos[arm.site])
-        ctrl.ee_ori_mat = np.array(data.site_xmat[arm.site].reshape([3, 3]))
-        jacp, jacr = np.zeros((3, nv)), np.zeros((3, nv))
-        mujoco.mj_jacSite(self.model, data, jacp, jacr, arm.site)
-        ctrl.ee_pos_vel = np.array(np.dot(jacp, data.qvel))
-        ctrl.ee_ori_vel = np.array(np.dot(jacr, data.qvel))
-        ctrl.joint_pos = data.qpos[arm.qpos_index]
-        ctrl.joint_vel = data.qvel[arm.qvel_index]
-        ctrl.J_pos = jacp[:, arm.qvel_index]
-        ctrl.J_ori = jacr[:, arm.qvel_index]
-        ctrl.J_full = np.vstack([ctrl.J_pos, ctrl.J_ori])
-        mass_matrix: np.ndarray = np.ndarray(shape=(nv, nv), dtype=np.float64, order="C")
-        mujoco.mj_fullM(self.model, mass_matrix, data.qM)
-        ctrl.mass_matrix = mass_matrix[arm.qvel_index, :][:, arm.qvel_index]
+        Where robosuite copies a fresh array again (`np.array(x[index])`, `np.array(np.dot(..))`,
+        which keep its memory order), the fresh array itself; where it stacks the two Jacobians
+        (`np.vstack`: `np.concatenate` of its arguments made 2-d), `np.concatenate`: the same
+        values in the same order (C or F). The memory order matters: robosuite's numba kernels
+        compile one version per layout, and their BLAS calls round differently (its mass-matrix
+        block is F-ordered, so it is taken as robosuite takes it). The Jacobians and the mass
+        matrix are written into the arm's buffers (mj_jacSite and mj_fullM write every element)
+        and copied out by the fancy indexing, so no attribute shares a buffer."""
+        ctrl, model, index = arm.controller, self.model, arm.qvel_index
+        ctrl.ee_pos = np.array(self.site_xpos[arm.site])
+        ctrl.ee_ori_mat = np.array(self.site_xmat[arm.site].reshape([3, 3]))
+        jacp, jacr, qvel = arm.jacp, arm.jacr, self.qvel
+        mujoco.mj_jacSite(model, self.data, jacp, jacr, arm.site)
+        ctrl.ee_pos_vel = np.dot(jacp, qvel)
+        ctrl.ee_ori_vel = np.dot(jacr, qvel)
+        ctrl.joint_pos = self.qpos[arm.qpos_index]
+        ctrl.joint_vel = qvel[index]
+        ctrl.J_pos = jacp[:, index]
+        ctrl.J_ori = jacr[:, index]
+        ctrl.J_full = np.concatenate([ctrl.J_pos, ctrl.J_ori])
+        mujoco.mj_fullM(model, arm.mass_matrix, self.qM)
+        ctrl.mass_matrix = arm.mass_matrix[index, :][:, index]
         ctrl.new_update = False
+
+    def osc_torques(self, arm: _Arm) -> np.ndarray:
+        """robosuite's `OperationalSpaceController.run_controller` after its `update` (done) for fixed
+        gains and no interpolators (`_handled_osc`), operation for operation: the same numba kernels
+        on the same arrays, the same `np.dot` calls on the same operands, the same elementwise
+        operations in the same order. Left out: the copies robosuite takes of arrays it only reads
+        (`np.array(position_error)`, `np.array(self.kp[0:3])`, `np.array(self.goal_pos)`), whose
+        values are the same; kept: the copy of the goal orientation a numba kernel receives (a copy
+        is contiguous, and the kernel's layout decides its compiled version)."""
+        ctrl = arm.controller
+        ori_error = self.orientation_error(np.array(ctrl.goal_ori), ctrl.ee_ori_mat)
+        kp, kd = ctrl.kp, ctrl.kd
+        desired_force = np.multiply(ctrl.goal_pos - ctrl.ee_pos, kp[0:3]) + np.multiply(-ctrl.ee_pos_vel, kd[0:3])
+        desired_torque = np.multiply(ori_error, kp[3:6]) + np.multiply(-ctrl.ee_ori_vel, kd[3:6])
+        lambda_full, lambda_pos, lambda_ori, nullspace_matrix = self.opspace_matrices(
+            ctrl.mass_matrix, ctrl.J_full, ctrl.J_pos, ctrl.J_ori
+        )
+        if ctrl.uncoupling:
+            decoupled_wrench = np.concatenate([np.dot(lambda_pos, desired_force), np.dot(lambda_ori, desired_torque)])
+        else:
+            decoupled_wrench = np.dot(lambda_full, np.concatenate([desired_force, desired_torque]))
+        torques = np.dot(ctrl.J_full.T, decoupled_wrench) + self.qfrc_bias[arm.qvel_index]
+        torques += self.nullspace_torques(
+            ctrl.mass_matrix, nullspace_matrix, ctrl.initial_joint, ctrl.joint_pos, ctrl.joint_vel
+        )
+        ctrl.torques = torques
+        ctrl.new_update = True  # robosuite's base `run_controller`
+        return torques
+
+    def osc_substep(self, arm: _Arm) -> np.ndarray:
+        """`update` and `osc_torques` in one call of `osc_kernel`'s kernel (the same operations),
+        the controller's attributes set from what it returns."""
+        ctrl = arm.controller
+        out = self.kernel(
+            *self.addresses, arm.site, arm.jacp, arm.jacr, arm.mass_matrix, self.site_xpos, self.site_xmat,
+            self.qpos, self.qvel, self.qM, self.qfrc_bias, arm.qpos_index, arm.qvel_index, ctrl.goal_pos,
+            np.array(ctrl.goal_ori), ctrl.kp, ctrl.kd, ctrl.initial_joint, ctrl.uncoupling,
+        )  # fmt: skip
+        (torques, ctrl.ee_pos, ctrl.ee_ori_mat, ctrl.ee_pos_vel, ctrl.ee_ori_vel, ctrl.joint_pos, ctrl.joint_vel,
+         ctrl.J_pos, ctrl.J_ori, ctrl.J_full, ctrl.mass_matrix) = out  # fmt: skip
+        ctrl.torques = torques
+        ctrl.new_update = True  # robosuite's base `run_controller`
+        return torques
 
     def control(self, action: np.ndarray) -> None:
         """`SingleArm.control` of every arm for a substep that is not a policy step."""
-        data = self.data
-        for arm in self.arms:
-            self.update(arm)
-            torques = np.clip(arm.controller.run_controller(), arm.torque_low, arm.torque_high)
+        ctrl = self.ctrl
+        for n, arm in enumerate(self.arms):
+            if arm.osc and self.kernel is not None:
+                raw = self.osc_substep(arm)
+            else:
+                self.update(arm)
+                raw = self.osc_torques(arm) if arm.osc else arm.controller.run_controller()
+            torques = _CLIP(raw, arm.torque_low, arm.torque_high)
             arm.robot.torques = torques
             if len(arm.gripper_actuators):
-                gripper = arm.robot.gripper.format_action(action[arm.gripper_slice])
-                data.ctrl[arm.gripper_actuators] = arm.gripper_bias + arm.gripper_weight * gripper
-            data.ctrl[arm.arm_actuators] = torques
+                gripper_action = action[arm.gripper_slice]
+                if arm.panda_gripper:
+                    gripper = self.grip(n, arm.robot.gripper, gripper_action)
+                else:
+                    gripper = arm.robot.gripper.format_action(gripper_action)
+                ctrl[arm.gripper_actuators] = arm.gripper_bias + arm.gripper_weight * gripper
+            ctrl[arm.arm_actuators] = torques
+
+    def grip(self, n: int, gripper, action: np.ndarray) -> np.ndarray:
+        """robosuite's `PandaGripper.format_action` for arm `n`: `clip(current + [-1, 1] * speed *
+        sign(action), -1, 1)`. Its step (`[-1, 1] * speed * sign(action)`, the same product in the same
+        order) depends on the action only, so it is computed at the control step's first substep here
+        and kept; the clip is np.clip's own ufunc."""
+        step = self.grip_steps.get(n)
+        if step is None:
+            assert len(action) == gripper.dof
+            step = self.grip_steps[n] = np.array([-1.0, 1.0]) * gripper.speed * np.sign(action)
+        gripper.current_action = _CLIP(gripper.current_action + step, -1.0, 1.0)
+        return gripper.current_action

@@ -21,8 +21,9 @@ control step without robosuite's repeated forward passes.
   stages (site poses, Jacobians, mass matrix, bias forces), so here each substep is MuJoCo's split
   step: mj_step1 (position and velocity stages), the controllers with their mj_forward skipped,
   mj_step2 (actuation, acceleration, constraints, Euler integration); between policy steps the arm
-  control runs without robosuite's per-call lookups (`arm_control`). Same state, observations,
-  reward and success, bit for bit (tests/libero/test_physics.py), at about a third of the step's
+  control is robosuite's OSC and gripper arithmetic without its lookups, copies and property calls
+  (`arm_control`). Same state, observations, reward and success, bit for bit
+  (tests/libero/test_physics.py, tests/libero/test_arm_control.py), at about a third of the step's
   cost.
   Every env built here steps that way (`control_step`, in place of LIBERO's and robosuite's `step`).
 - `physics_step(env, action)`: the same control step for the physics only, without what only an
@@ -205,6 +206,7 @@ def physics_env(bddl_file: str, fresh: bool = False, **kwargs):
     initialize = inner._initialize_sim
 
     def initialize_sim(xml_string=None):
+        arm_control.forget(inner)  # its kept arms hold the model this hard reset replaces
         with _compiles_through_cache():
             initialize(xml_string)
         _keep_compiled_values(inner)
@@ -307,7 +309,7 @@ def _substeps(inner, action, observe: bool) -> None:
     for substep in range(int(inner.control_timestep / inner.model_timestep)):
         mujoco.mj_step1(model, data)
         if substep and arms is not None:
-            arms.control(action)  # between policy steps: robosuite's arm control, its lookups kept
+            arms.control(action)  # between policy steps: robosuite's arm control, written out (arm_control)
         else:
             sim.forward = _forward_done
             try:
