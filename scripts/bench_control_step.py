@@ -35,7 +35,7 @@ import numpy as np
 
 from vpro_assets.benchmark.catalog import find_case, load_catalog
 from vpro_assets.core import paths
-from vpro_assets.libero import arm_control, physics
+from vpro_assets.libero import arm_control, osc_kernel, physics
 from vpro_assets.libero import bridge as libero_bridge
 from vpro_assets.libero.env import libero_init_states
 from vpro_assets.libero.tasks import get_task
@@ -151,6 +151,7 @@ def main() -> None:
     parser.add_argument("--against", help="git revision whose arm control runs beside this tree's (split+lean@REV)")
     parser.add_argument("--json", help="write the raw times here")
     args = parser.parse_args()
+    osc_kernel.KERNEL_AFTER_STEPS = 0  # the steady state: the kernel from the first step, not after 2,000
     if args.against:
         AGAINST[f"split+lean@{args.against}"] = load_arm_control(args.against)
     old = next(iter(AGAINST), None)

@@ -89,6 +89,7 @@ def test_arm_control_is_robosuites_substep_for_substep(path, monkeypatch):
         monkeypatch.setattr(osc_kernel, "kernel", lambda: None)
     else:
         assert osc_kernel.kernel() is not None, "numpy's OpenBLAS or MuJoCo's C API not found here"
+        monkeypatch.setattr(osc_kernel, "KERNEL_AFTER_STEPS", 0)  # a short test: the kernel from the start
     lean = _substep_states("libero_goal-03", 40, lean=True)
     assert len(reference) == len(lean) == 1000
     for n, (ref, got) in enumerate(zip(reference, lean, strict=True)):
@@ -120,3 +121,15 @@ def test_every_arm_of_libero_is_handled_and_kept_until_a_reset():
         assert again.arms[0].controller is env.env.robots[0].controller
     finally:
         env.close()
+
+
+def test_a_process_compiles_the_kernel_only_once_it_has_run_enough_steps(monkeypatch):
+    """The kernel (compiled in each process) is taken from the first env reset after
+    KERNEL_AFTER_STEPS control steps; before, the NumPy path (the same bits, no compile)."""
+    monkeypatch.setattr(osc_kernel, "KERNEL_AFTER_STEPS", 3)
+    monkeypatch.setattr(osc_kernel, "_STEPS_RUN", [0])
+    for _ in range(2):
+        osc_kernel.step_run()
+        assert osc_kernel.kernel_if_worth_it() is None
+    osc_kernel.step_run()
+    assert osc_kernel.kernel_if_worth_it() is osc_kernel.kernel() is not None

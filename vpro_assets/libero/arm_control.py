@@ -103,7 +103,7 @@ class Arms:
         self.site_xpos, self.site_xmat, self.qpos, self.qvel = data.site_xpos, data.site_xmat, data.qpos, data.qvel
         self.qM, self.qfrc_bias, self.ctrl = data.qM, data.qfrc_bias, data.ctrl
         self.grip_steps: dict[int, np.ndarray] = {}  # per arm: the gripper's step in this control step
-        self.kernel = osc_kernel.kernel()  # None: the NumPy path below
+        self.kernel = osc_kernel.kernel_if_worth_it()  # None: the NumPy path below
         self.addresses = (self.model._address, self.data._address) if self.kernel is not None else (0, 0)
         # robosuite's numba kernels as its OSC module binds them (`from control_utils import *`)
         osc = importlib.import_module("robosuite.controllers.osc")
@@ -116,6 +116,7 @@ class Arms:
         """The env's arms for this control step: those of its previous control step while the env
         keeps its model, data, robots, controllers and grippers (a reset makes new controllers, a
         hard reset new everything), else found anew (about 0.2 ms, mostly robosuite's name lookups)."""
+        osc_kernel.step_run()
         key = (id(inner.sim.model._model), id(inner.sim.data._data)) + tuple(
             (id(robot), id(robot.controller), id(getattr(robot, "gripper", None))) for robot in inner.robots
         )

@@ -23,7 +23,8 @@ RTLD_LOCAL. Loading numpy's OpenBLAS and MuJoCo into numba's linker instead
 `pinv` fail inside the kernel, in numba's `np.linalg` on scipy's LAPACK
 ("Insufficient memory for buffer allocation required by LAPACK"; the likely cause, not confirmed:
 global symbols of numpy's 64-bit-index OpenBLAS taking the place of scipy's OpenBLAS's own inside
-its LAPACK). So the kernel is compiled in each process, at its first call (about 7 s here).
+its LAPACK). So the kernel is compiled in each process, at its first call (about 7 s here), and only by a process
+that has run enough steps to gain it back (`kernel_if_worth_it`).
 
 `kernel()` is None where any of this is not at hand (numpy without its bundled OpenBLAS, robosuite's
 kernels not jitted, MuJoCo bindings without raw addresses): `arm_control` then runs its NumPy path.
@@ -76,6 +77,25 @@ def _mujoco_functions():
     jac_site.argtypes = [pointer, pointer, pointer, pointer, ctypes.c_int]
     full_m.argtypes = [pointer, pointer, pointer]
     return jac_site, full_m
+
+
+# Compiled in each process (about 7 s here), the kernel saves about 0.1 ms a substep against the
+# NumPy path (docs/benchmarks.md): it pays for itself after some 70,000 substeps. So a process runs
+# the NumPy path (the same bits) for its first KERNEL_AFTER_STEPS control steps (a certificate, build
+# or validation worker: its first few episodes or cases) and the kernel from its next env reset on;
+# a short process (one `vpro eval` episode, most tests) never compiles it.
+KERNEL_AFTER_STEPS = 2_000
+_STEPS_RUN = [0]
+
+
+def step_run() -> None:
+    """Count a control step of this process (`arm_control.Arms.of`)."""
+    _STEPS_RUN[0] += 1
+
+
+def kernel_if_worth_it():
+    """`kernel()` once this process has run KERNEL_AFTER_STEPS control steps, else None."""
+    return kernel() if _STEPS_RUN[0] >= KERNEL_AFTER_STEPS else None
 
 
 @functools.cache
