@@ -21,7 +21,7 @@ from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.foot import FOOT_SQUEEZE_M, foot_pinch
 from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS, WITH_WRIST, hand_fits, reach_height
-from vpro_assets.rollout.policies.oracle.overhang import overhang_pinch
+from vpro_assets.rollout.policies.oracle.overhang import lands_clear, overhang_pinch
 from vpro_assets.rollout.policies.oracle.shape import (
     MAX_PINCH_M,
     NARROW_DEPTH_M,
@@ -132,17 +132,21 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
     if reach[k] <= hi[2] - MIN_RIM_PINCH_M:
         grasp = replace(sides[k], point=within_reach(np.append(sides[k].point[:2], reach[k])))
         return replace(grasp, entry=side_entry(boxes, grasp))  # zero: the hand comes down to `reach`
-    # No side is free from above (an opened drawer over a bowl): first a pinch the hand comes straight
-    # down to with its wrist on the side the yaw puts it (`overhang`), then one aimed at the full depth
-    # on a side the hand slides in at (`side_entry`), else on the side with the fewest obstacles where
-    # the fingertips come down, and let the hand squeeze past.
-    sided = overhang_pinch(world.hulls(instance), boxes, z, robot, lambda left: sided_yaw(world, left) is not None)
-    if sided is not None:
-        point, left = sided
-        return Grasp(within_reach(point), left, 2 * WALL_INSET_M, rim=True, sided=True)
+    # No side is free from above (an opened drawer over a bowl): aim at the full depth on a side the
+    # hand slides in at (`side_entry`) where it comes down with the fingers clear of the wall; else a
+    # pinch it comes straight down to with its wrist on the side the yaw puts it (`overhang`): a long
+    # slide along a round wall lands the inner finger on the rim (libero_goal-03 taper-s3: 4-6 cm).
+    # Else on the side with the fewest obstacles where the fingertips come down; the hand squeezes past.
     sides = [replace(g, entry=side_entry(boxes, g)) for g in sides]
     entering = [g for g in sides if g.entry.any()]
-    return min(entering or sides, key=lambda g: blocked_spots(boxes, g))
+    slid = min(entering or sides, key=lambda g: blocked_spots(boxes, g))
+    if slid.entry.any() and lands_clear(world.hulls(instance), slid.point + slid.entry, slid.axis):
+        return slid
+    sided = overhang_pinch(world.hulls(instance), boxes, z, robot, lambda left: sided_yaw(world, left) is not None)
+    if sided is None:
+        return slid
+    point, left = sided
+    return Grasp(within_reach(point), left, 2 * WALL_INSET_M, rim=True, sided=True)
 
 
 def sloped_close(hulls: list[np.ndarray], grasp: Grasp) -> Grasp:

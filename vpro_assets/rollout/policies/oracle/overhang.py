@@ -101,6 +101,15 @@ def fingers_clear(
     return inside == 1 and outside == 1
 
 
+def lands_clear(hulls: list[np.ndarray], point: np.ndarray, axis: np.ndarray) -> bool:
+    """Whether the open hand coming down over `point`, fingers closing along `axis`, has one finger
+    inside the object's mouth and the other outside its wall (`fingers_clear`)."""
+    pts = np.concatenate(hulls)
+    center = np.append((pts.min(0)[:2] + pts.max(0)[:2]) / 2, 0.0)
+    radii = wall_radii(hulls, center)
+    return radii is not None and fingers_clear(radii, center, point, axis)
+
+
 def overhang_pinch(
     hulls: list[np.ndarray], boxes: np.ndarray, z: float, toward: np.ndarray, room: Callable[[np.ndarray], bool]
 ) -> tuple[np.ndarray, np.ndarray] | None:
