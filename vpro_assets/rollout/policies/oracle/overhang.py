@@ -44,6 +44,11 @@ FINGER_CLEAR_M = (
 )
 SECTOR_RAD = np.radians(20)  # the wall's radius at a finger's corner: of the points this close in angle
 RIM_BELOW_M = 0.004  # the mouth measured this far below the rim
+# A sideways entry (`grasp.side_entry`) whose inner finger comes down at most this far over the
+# mouth's edge grazes the rim and slides in: libero_goal-03's round bowls (Normal trial 3, open50
+# trial 0, asymmetric-s1 trial 5: 0.9-2.7 mm over, entries of 4 cm, solved so); on taper-s3's rim,
+# narrowed to 3.8 cm, the same entries land 12-17 mm over it and the fingers close on the rim.
+RIM_SLACK_M = 0.005
 
 
 def placed_parts(point: np.ndarray, left: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, tuple]]:
@@ -81,10 +86,11 @@ def wall_radii(hulls: list[np.ndarray], center: np.ndarray) -> tuple[np.ndarray,
 
 
 def fingers_clear(
-    radii: tuple[np.ndarray, np.ndarray], center: np.ndarray, point: np.ndarray, left: np.ndarray
+    radii: tuple[np.ndarray, np.ndarray], center: np.ndarray, point: np.ndarray, left: np.ndarray, slack: float = 0.0
 ) -> bool:
     """Whether, the hand over `point`, one open finger comes down inside the object's mouth and the
-    other outside it, each corner FINGER_CLEAR_M clear of the wall (`wall_radii`)."""
+    other outside it, each corner FINGER_CLEAR_M clear of the wall (`wall_radii`); the inner one
+    may reach `slack` over the mouth's edge."""
     mouth, outer = radii
     across = np.array([-left[1], left[0]])
     inside = outside = 0
@@ -96,18 +102,19 @@ def fingers_clear(
         ]
         r, ang = _polar(np.array(corners) - center[:2])
         k = np.round(np.degrees(ang)).astype(int) % 360
-        inside += bool(np.all(r < mouth[k] - FINGER_CLEAR_M))
+        inside += bool(np.all(r < mouth[k] - FINGER_CLEAR_M + slack))
         outside += bool(np.all(r > outer[k] + FINGER_CLEAR_M))
     return inside == 1 and outside == 1
 
 
 def lands_clear(hulls: list[np.ndarray], point: np.ndarray, axis: np.ndarray) -> bool:
     """Whether the open hand coming down over `point`, fingers closing along `axis`, has one finger
-    inside the object's mouth and the other outside its wall (`fingers_clear`)."""
+    inside the object's mouth, at most RIM_SLACK_M over its edge, and the other outside its wall
+    (`fingers_clear`)."""
     pts = np.concatenate(hulls)
     center = np.append((pts.min(0)[:2] + pts.max(0)[:2]) / 2, 0.0)
     radii = wall_radii(hulls, center)
-    return radii is not None and fingers_clear(radii, center, point, axis)
+    return radii is not None and fingers_clear(radii, center, point, axis, RIM_SLACK_M)
 
 
 def overhang_pinch(
