@@ -27,7 +27,7 @@ from vpro_assets.rollout.policies.oracle.grasp import (
 )
 from vpro_assets.rollout.policies.oracle.hand import FINGER_HALF_WIDTH_M, FINGER_THICK_M, WITH_WRIST, reach_height
 from vpro_assets.rollout.policies.oracle.overhang import blocked as overhang_blocked
-from vpro_assets.rollout.policies.oracle.overhang import overhang_pinch, placed_parts
+from vpro_assets.rollout.policies.oracle.overhang import lands_clear, overhang_pinch, placed_parts
 from vpro_assets.rollout.policies.oracle.pick import SWAY_M, SWAY_STEPS, close_on_wall, inner_way, pick
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.policy import OraclePolicy, libero_holds
@@ -199,6 +199,11 @@ def test_pinch_under_an_overhang_comes_straight_down_with_the_wrist_beside_it():
     assert radii[0] + np.hypot(FINGER_THICK_M / 2, FINGER_HALF_WIDTH_M) < 0.040 and radii[1] > 0.046 + 0.011
     radial = point[:2] / np.linalg.norm(point[:2])
     assert abs(float(radial @ left[:2])) < np.cos(np.radians(5))  # turned off the radial direction
+    # The sideways entry it replaces: 2 cm along the wall the inner finger comes down in the mouth;
+    # 4 cm along, 1.1 cm over its edge, on the rim (kept only to RIM_SLACK_M over).
+    wall_pinch = np.array([-0.034, 0.0, z])
+    assert lands_clear(hulls, wall_pinch + [0, 0.02, 0], robot)
+    assert not lands_clear(hulls, wall_pinch + [0, 0.04, 0], robot)
     free, left = overhang_pinch(hulls, np.zeros((0, 2, 3)), z, robot, lambda left: True)
     np.testing.assert_allclose(free, [-0.034, 0.0, z], atol=1e-3)
     np.testing.assert_allclose(np.abs(left), [1.0, 0.0, 0.0], atol=1e-9)
