@@ -21,6 +21,7 @@ from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.foot import FOOT_SQUEEZE_M, foot_pinch
 from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS, WITH_WRIST, hand_fits, reach_height
+from vpro_assets.rollout.policies.oracle.overhang import lands_clear, overhang_pinch
 from vpro_assets.rollout.policies.oracle.shape import (
     MAX_PINCH_M,
     NARROW_DEPTH_M,
@@ -83,6 +84,9 @@ class Grasp:
     # A whole pinch of sides that slope in toward the top (`sloped_close`): the fingers' target opening
     # (m), closed to and held there, the hand otherwise as for a full close. None: close fully.
     close_to: float | None = None
+    # The left finger is toward `axis` (`overhang.overhang_pinch`: planned with the wrist on that
+    # side): the pick turns the hand so (`grasp_orientation`), not to the nearer of the two yaws.
+    sided: bool = False
 
 
 def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) -> Grasp:
@@ -129,11 +133,20 @@ def plan_grasp(world: World, instance: str, toward: np.ndarray | None = None) ->
         grasp = replace(sides[k], point=within_reach(np.append(sides[k].point[:2], reach[k])))
         return replace(grasp, entry=side_entry(boxes, grasp))  # zero: the hand comes down to `reach`
     # No side is free from above (an opened drawer over a bowl): aim at the full depth on a side the
-    # hand slides in at (`side_entry`), else on the side with the fewest obstacles where the
-    # fingertips come down, and let the hand squeeze past.
+    # hand slides in at (`side_entry`) where it comes down with the fingers clear of the wall; else a
+    # pinch it comes straight down to with its wrist on the side the yaw puts it (`overhang`): a long
+    # slide along a round wall lands the inner finger on the rim (libero_goal-03 taper-s3: 4-6 cm).
+    # Else on the side with the fewest obstacles where the fingertips come down; the hand squeezes past.
     sides = [replace(g, entry=side_entry(boxes, g)) for g in sides]
     entering = [g for g in sides if g.entry.any()]
-    return min(entering or sides, key=lambda g: blocked_spots(boxes, g))
+    slid = min(entering or sides, key=lambda g: blocked_spots(boxes, g))
+    if slid.entry.any() and lands_clear(world.hulls(instance), slid.point + slid.entry, slid.axis):
+        return slid
+    sided = overhang_pinch(world.hulls(instance), boxes, z, robot, lambda left: sided_yaw(world, left) is not None)
+    if sided is None:
+        return slid
+    point, left = sided
+    return Grasp(within_reach(point), left, 2 * WALL_INSET_M, rim=True, sided=True)
 
 
 def sloped_close(hulls: list[np.ndarray], grasp: Grasp) -> Grasp:
@@ -323,9 +336,23 @@ def blocked_spots(boxes: np.ndarray, grasp: Grasp) -> int:
     return hits
 
 
-def grasp_orientation(world: World, axis: np.ndarray) -> np.ndarray:
+def sided_yaw(world: World, left: np.ndarray) -> float | None:
+    """The yaw (`motion.down_with_yaw`) that puts the left finger toward `left` (the gripper's x axis
+    points to the right finger), the turn from now the shortest; None when the wrist cannot turn there."""
+    yaw = float(np.arctan2(-left[1], -left[0]))
+    now = motion.yaw_of(world.eef_mat())
+    yaw += 2 * np.pi * np.round((now - yaw) / (2 * np.pi))
+    wrist = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per radian of yaw
+    return yaw if world.wrist_room((yaw - now) * wrist) >= 0 else None
+
+
+def grasp_orientation(world: World, axis: np.ndarray, sided: bool = False) -> np.ndarray:
     """Gripper pointing down with the fingers closing along `axis`: the yaw nearest the current, or
-    the other (half a turn away) when the nearer would turn the wrist past its limit."""
+    the other (half a turn away) when the nearer would turn the wrist past its limit. `sided`: the
+    left finger toward `axis` (`sided_yaw`), where the wrist can turn so."""
+    yaw_sided = sided_yaw(world, axis) if sided else None
+    if yaw_sided is not None:
+        return motion.down_with_yaw(yaw_sided)
     yaw = float(np.arctan2(axis[1], axis[0]))
     now = motion.yaw_of(world.eef_mat())
     yaw += np.pi * np.round((now - yaw) / np.pi)

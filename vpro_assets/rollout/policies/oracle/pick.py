@@ -61,7 +61,7 @@ def pick(
     for attempt in range(attempts):
         grasp = planned if attempt == 0 and planned is not None else plan_grasp(world, instance, toward)
         world.hung = grasp.hung
-        orient = grasp_orientation(world, grasp.axis)
+        orient = grasp_orientation(world, grasp.axis, grasp.sided)
         start_z = world.body_pos(instance)[2]
         entry = grasp.entry
         inner = inner_way(world, instance, grasp) if _reached_from_inside(world, grasp) else None
