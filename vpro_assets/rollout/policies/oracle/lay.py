@@ -9,6 +9,12 @@ carried with the fingers closing across the line from the arm's base, then, over
 hand tips forward about the fingers' axis to point out along that line, LAY_TILT_RAD below the
 horizontal; the object's far end comes down first, and let go there it falls flat, its body position
 a radius over the top.
+
+A region on a slope (`spot`) has its box tilted with it: libero_goal-09's wine rack shelf rises 31
+degrees toward the back from a 1.4 cm lip, and its region's box (in LIBERO's `mat @ (p - site)`)
+reaches 0-10 cm up the shelf from the lip and 2.2 cm either side of a plane 0.5 cm over the shelf.
+The inverted bottle is laid there along the shelf's contour line, centred in that box: it rolls
+down against the lip, its base's centre a radius (2.2 cm) over the shelf, inside the box.
 """
 
 from __future__ import annotations
@@ -24,6 +30,9 @@ LIBERO_ON_HEIGHT_M = 0.10  # `SiteObject.under`'s other_height: the body at most
 # The hand points this far below the horizontal when it lets go, so the object's far end touches
 # first: level, the hand (6.6 cm across) reached 3.3 cm under the grip site, below the 2.2 cm bottle.
 LAY_TILT_RAD = np.radians(20.0)
+# A region whose LIBERO box rises less steeply than this (the cosine of its "up" axis with the
+# vertical) is a slope: libero_goal-09's wine rack shelf, its box's up axis 62 degrees from vertical.
+LEVEL_COS = 0.9
 TURN_SPEED = 0.5  # of the action's full turn: turning at full speed draws the grip site off its place
 TURN_TOL_RAD, TURN_STEPS = 0.05, 60
 AIM_TOL_M, AIM_STEPS = 0.01, 40
@@ -34,12 +43,27 @@ def rise(world: World, held: str) -> float:
     return float(world.body_pos(held)[2] - world.points(held)[:, 2].min())
 
 
-def orientations(world: World, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(the hand pointing down, its fingers closing across the line from the arm's base to `xy`;
-    that hand tipped forward about the fingers' axis to point out along the line, LAY_TILT_RAD below
-    the horizontal)."""
+def spot(world: World, region: str, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(where the laid object's extent is centred, the level direction it lies along) on `region`,
+    `xy` its destination. A level region: `xy`, along the line from the arm's base. A slope (the
+    wine rack's shelf, `LEVEL_COS`): the middle of LIBERO's box (`SiteObject.under` tests
+    `mat @ (p - site)` against it), up the slope from its lip, and along the slope's contour line,
+    pointing away from the arm: across the line from the base, the bottle set down at the lip
+    (libero_goal-09's region) had one end off the shelf's front and fell to the table."""
     out = np.append(xy - ROBOT_BASE_XY, 0.0)
-    out /= np.linalg.norm(out)
+    up = world.site_mat(region)[2]  # LIBERO's "up" of the box, in the world
+    if abs(up[2]) >= LEVEL_COS:
+        return xy, out / np.linalg.norm(out)
+    middle = world.site_mat(region).T @ [0.0, 0.0, world.site_size(region)[2] + LIBERO_ON_HEIGHT_M / 2]
+    level = np.array([-up[1], up[0], 0.0]) / np.linalg.norm(up[:2])
+    return (world.site_pos(region) + middle)[:2], level * np.sign(level @ out)
+
+
+def orientations(world: World, along: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(the hand pointing down, its fingers closing across `along` (a level unit vector); that hand
+    tipped forward about the fingers' axis to point out along `along`, LAY_TILT_RAD below the
+    horizontal)."""
+    out = along
     down = grasp_orientation(world, np.cross(out, [0.0, 0.0, 1.0]))
     fingers = down[:, 0]
     approach = out * np.cos(LAY_TILT_RAD) - np.array([0.0, 0.0, np.sin(LAY_TILT_RAD)])

@@ -263,21 +263,22 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions
     yield from pick(world, held, planned=None if pushed else grasp)
     dest = resolve(world, relation, dest_arg, held)
     if dest.surface_z + rise > dest.max_body_z:
-        yield from lay_down(world, held, dest)
+        yield from lay_down(world, held, dest, dest_arg)
         return
     yield from carry(world, held, dest.xy)
     yield from lower_and_release(world, held, dest)
 
 
-def lay_down(world: World, held: str, dest: Destination) -> Actions:
-    """Carry the held object to `dest` and lay it on its side there (`lay`): carried with the
-    fingers across the line from the arm's base, tipped forward over the destination, its extent
-    centred there, lowered and let go."""
-    down, tipped = lay.orientations(world, dest.xy)
+def lay_down(world: World, held: str, dest: Destination, region: str) -> Actions:
+    """Carry the held object to `dest` (on `region`) and lay it on its side there (`lay`): carried
+    with the fingers across the direction it will lie along, tipped forward over the destination,
+    its extent centred at the region's spot for it (`lay.spot`), lowered and let go."""
+    xy, along = lay.spot(world, region, dest.xy)
+    down, tipped = lay.orientations(world, along)
     if dest.surface_z + lay.laid_rise(world, held, tipped) > dest.max_body_z:
         raise SkillFailed(f"{held} stands too tall for {dest.instance} even laid on its side")
-    yield from carry(world, held, lay.carry_target(world, held, dest.xy, down, tipped), orient=down)
+    yield from carry(world, held, lay.carry_target(world, held, xy, down, tipped), orient=down)
     yield from lay.tip(world, tipped)
-    yield from lay.centre_over(world, held, dest.xy)
+    yield from lay.centre_over(world, held, xy)
     here = Destination(world.body_pos(held)[:2], dest.surface_z, dest.instance, dest.relation, dest.max_body_z)
     yield from lower_and_release(world, held, here)
