@@ -68,3 +68,23 @@ def test_inverted_bottle_laid_along_the_wine_rack_shelf(scene):
     s.run(motion.hold_still(w, motion.OPEN, 30), limit=35)
     assert np.ptp(w.points(BOTTLE)[:, 2]) < 0.06, steps  # lying on the shelf (4.4 cm across), not standing
     assert s.holds(("on", BOTTLE, RACK_REGION)) and s.cenv.success(), steps
+
+
+def test_lying_bottle_pinched_where_the_hand_comes_down_beside_the_rack(scene):
+    """libero_goal-09's lying bottle (trial 1) lies with its neck under the wine rack's front: over
+    its middle the open hand stops on the rack's lower lip, 5.6 cm over the pinch. The pinch moves
+    along the bottle (`grasp.along_free`) to where the hand comes down to it."""
+    from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
+    from vpro_assets.rollout.policies.oracle.grasp import BLOCKED_M, plan_grasp
+    from vpro_assets.rollout.policies.oracle.hand import reach_height
+    from vpro_assets.rollout.policies.oracle.shape import extent_middle
+
+    case = "libero_goal-09/task_precondition_variation/object_pose-v1-lying"
+    build_scene_case(case)
+    w = scene(case, 1).world
+    grasp = plan_grasp(w, BOTTLE)
+    boxes = obstacle_boxes(w, (BOTTLE,))
+    middle = extent_middle(w.points(BOTTLE), grasp.axis, grasp.point[2])
+    assert reach_height(boxes, middle, grasp.axis) > middle[2] + 0.04  # over the middle: on the rack
+    assert reach_height(boxes, grasp.point, grasp.axis) <= grasp.point[2] + BLOCKED_M
+    assert 0.01 <= np.linalg.norm(grasp.point - middle) <= 0.05

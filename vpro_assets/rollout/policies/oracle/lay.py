@@ -43,6 +43,11 @@ def rise(world: World, held: str) -> float:
     return float(world.body_pos(held)[2] - world.points(held)[:, 2].min())
 
 
+def sloped(world: World, region: str) -> bool:
+    """Whether `region`'s LIBERO box is tilted with a slope (`LEVEL_COS`)."""
+    return abs(world.site_mat(region)[2, 2]) < LEVEL_COS
+
+
 def spot(world: World, region: str, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(where the laid object's extent is centred, the level direction it lies along) on `region`,
     `xy` its destination. A level region: `xy`, along the line from the arm's base. A slope (the
@@ -51,9 +56,9 @@ def spot(world: World, region: str, xy: np.ndarray) -> tuple[np.ndarray, np.ndar
     pointing away from the arm: across the line from the base, the bottle set down at the lip
     (libero_goal-09's region) had one end off the shelf's front and fell to the table."""
     out = np.append(xy - ROBOT_BASE_XY, 0.0)
-    up = world.site_mat(region)[2]  # LIBERO's "up" of the box, in the world
-    if abs(up[2]) >= LEVEL_COS:
+    if not sloped(world, region):
         return xy, out / np.linalg.norm(out)
+    up = world.site_mat(region)[2]  # LIBERO's "up" of the box, in the world
     middle = world.site_mat(region).T @ [0.0, 0.0, world.site_size(region)[2] + LIBERO_ON_HEIGHT_M / 2]
     level = np.array([-up[1], up[0], 0.0]) / np.linalg.norm(up[:2])
     return (world.site_pos(region) + middle)[:2], level * np.sign(level @ out)

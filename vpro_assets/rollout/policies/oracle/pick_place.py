@@ -262,7 +262,11 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions
     pushed = yield from nudge.clear_for_pick(world, held, grasp)
     yield from pick(world, held, planned=None if pushed else grasp)
     dest = resolve(world, relation, dest_arg, held)
-    if dest.surface_z + rise > dest.max_body_z:
+    # Onto a slope, also what hangs too tall once lifted: libero_goal-09's lying bottle, pinched off
+    # its middle (its neck under the rack, `grasp.along_free`), hangs neck down; let go over the
+    # rack's lip, it fell to the table.
+    hangs_tall = dest.surface_z + lay.rise(world, held) > dest.max_body_z and lay.sloped(world, dest_arg)
+    if dest.surface_z + rise > dest.max_body_z or hangs_tall:
         yield from lay_down(world, held, dest, dest_arg)
         return
     yield from carry(world, held, dest.xy)
