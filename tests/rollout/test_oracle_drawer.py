@@ -107,3 +107,23 @@ def test_half_open_middle_drawer_case_solved_within_libero_goal_limit(trial):
     case_id = "libero_goal-00/task_precondition_variation/receptacle_openness-v1-open50"
     row = oracle_episode(case_id, trial, build=True)
     assert row["success"] and row["steps"] < 300, row
+
+
+def test_an_upright_bowl_goes_into_the_drawer_as_libero_opened_it(scene):
+    """libero_10-03's Normal bowl goes in narrow foot first: the drawer, open at -0.146 (of -0.16),
+    is not pulled out further (the plan starts with the bowl)."""
+    s = scene("libero_10-03/normal")
+    assert s.plan()[0].startswith("pick_place(in akita_black_bowl_1")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", [0, 6])
+def test_an_inverted_bowl_goes_into_the_drawer_pulled_out_to_its_end(trial):
+    """libero_10-03's object_pose case: the bowl upside down, its 10.7 cm rim lowest. At LIBERO's
+    -0.146 the drawer's mouth is 10.4 cm between its front wall and the handles above: the rim
+    caught the top drawer's handle, the bowl was let go 15 cm up, fell in on edge and jammed the
+    close at -0.092 (0/10). Pulled out to -0.16 first it lands flat (trial 6 starts at -0.156, still
+    too little). The scene is built first (a no-op when it is current)."""
+    case_id = "libero_10-03/task_precondition_variation/object_pose-v1"
+    row = oracle_episode(case_id, trial, build=True)
+    assert row["success"], row

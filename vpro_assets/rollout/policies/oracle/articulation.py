@@ -58,6 +58,17 @@ def joint_for(world: World, arg: str) -> Joint:
     return Joint(j, fixture, arg, open_end, closed_end)
 
 
+# A drawer counts as out to the end of its range this near it (libero_10-03's bottom drawer starts at
+# -0.146 to -0.156 of -0.16; at -0.156 an inverted bowl still caught the handles above and fell on edge).
+FULL_OPEN_M = 0.002
+
+
+def fully_open(world: World, region: str) -> bool:
+    """Whether the drawer of `region` is out to (within FULL_OPEN_M of) the end of its range."""
+    joint = joint_for(world, region)
+    return abs(world.qpos(joint.id) - joint.open_end) < FULL_OPEN_M
+
+
 def needs_opening(world: World, region: str, is_open: bool) -> bool:
     """Whether the drawer or door of `region` must open before something goes in; `is_open`: LIBERO's
     Open holds for it. A drawer must be out as far as Open: less, its mouth stays under the

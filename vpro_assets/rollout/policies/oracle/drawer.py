@@ -21,11 +21,13 @@ once pushed fully home, where a hand pointing down would hit the handles above).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from vpro_assets.core.mjgeom import geom_corners
 from vpro_assets.rollout.policies.oracle import motion
-from vpro_assets.rollout.policies.oracle.articulation import Joint, joint_for
+from vpro_assets.rollout.policies.oracle.articulation import Joint, fully_open, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS, PART_TOPS
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
@@ -164,14 +166,21 @@ def leave(world: World, joint: Joint, grip: float, turn_on: bool = False) -> Act
     )
 
 
-def open_(world: World, region: str, attempts: int = 2) -> Actions:
+def open_(world: World, region: str, attempts: int = 2, full: bool = False) -> Actions:
+    """`full`: out to the end of the drawer's range, not only as far as LIBERO's Open (an object going
+    in wide end first: an inverted bowl's 10.7 cm rim passes libero_10-03's bottom drawer's mouth,
+    10.4 cm between its front wall and the handles above at -0.146, only out at -0.16)."""
     joint = joint_for(world, region)
     goal = ("open", region)
+
+    def done() -> bool:
+        return world.holds(goal) and (not full or fully_open(world, region))
+
     for _ in range(attempts):
-        if world.holds(goal):
+        if done():
             return
         if not pinch_fits(world, joint):
-            yield from drag(world, joint, goal)
+            yield from drag(world, joint, done)
             continue
         axis = open_direction(world, joint)
         orient = yield from face_handle(
@@ -181,7 +190,7 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
         travel = abs(joint.open_end - world.qpos(joint.id))
         start = world.eef()
         for _ in range(PULL_STEPS):
-            if world.holds(goal):
+            if done():
                 break
             yield motion.action_to(world, start + axis * (travel + 0.01), CLOSE, orient, speed=PULL_SPEED)
         # A few steps open the fingers off the handle; they open on while the hand backs away.
@@ -191,7 +200,7 @@ def open_(world: World, region: str, attempts: int = 2) -> Actions:
         raise SkillFailed(f"{region} did not open (joint at {world.qpos(joint.id):.3f})")
 
 
-def drag(world: World, joint: Joint, goal: tuple[str, str]) -> Actions:
+def drag(world: World, joint: Joint, done: Callable[[], bool]) -> Actions:
     """Open a low drawer by friction: the closed fingertips, the hand leaning down over the handle as
     for closing, press on the handle's top and drag it along the axis."""
     axis = open_direction(world, joint)
@@ -209,7 +218,7 @@ def drag(world: World, joint: Joint, goal: tuple[str, str]) -> Actions:
     q0, start = world.qpos(joint.id), touch + press
     travel = abs(joint.open_end - q0)
     for k in range(PULL_STEPS):
-        if world.holds(goal):
+        if done():
             break
         moved = abs(world.qpos(joint.id) - q0)
         if float((world.eef() - touch) @ axis) - moved > SLIP_M or (k >= STALL_STEPS and moved < STALL_M):

@@ -24,9 +24,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
+import numpy as np
+
 from vpro_assets.libero.task_record import TABLE_CATEGORIES
 from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, sweep, swing
-from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for, needs_opening, owner_of
+from vpro_assets.rollout.policies.oracle.articulation import fully_open, is_drawer, joint_for, needs_opening, owner_of
 from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
 from vpro_assets.rollout.policies.oracle.shape import MAX_PINCH_M, narrowest
@@ -55,10 +57,13 @@ def _articulated(world: World, arg: str) -> bool:
     return owner in dict(world.task.fixtures) and bool(world.joints_of(owner))
 
 
-def _open_step(world: World, arg: str, opening: bool) -> Step:
+def _open_step(world: World, arg: str, opening: bool, full: bool = False) -> Step:
     owner = owner_of(world, arg)
     module = door if _is_door(world, owner) else drawer
-    run = (lambda w: module.open_(w, arg)) if opening else (lambda w: module.close(w, arg))
+    if full:  # a drawer out to the end of its range
+        run: Callable[[World], Actions] = lambda w: drawer.open_(w, arg, full=True)  # noqa: E731
+    else:
+        run = (lambda w: module.open_(w, arg)) if opening else (lambda w: module.close(w, arg))
     return Step(module.__name__.rsplit(".", 1)[1], ("open" if opening else "close", arg), run)
 
 
@@ -119,10 +124,27 @@ def _out_of_the_swing(world: World, door_region: str) -> list[Step]:
     ]
 
 
-def _opening(world: World, region: str) -> list[Step]:
-    """The open step of a drawer or door; before a door's, pushes out of its swing."""
+def _opening(world: World, region: str, full: bool = False) -> list[Step]:
+    """The open step of a drawer or door; before a door's, pushes out of its swing. `full`: a drawer
+    out to the end of its range."""
     door_first = _out_of_the_swing(world, region) if _is_door(world, owner_of(world, region)) else []
-    return [*door_first, _open_step(world, region, True)]
+    return [*door_first, _open_step(world, region, True, full)]
+
+
+WIDE_END_M = 0.02  # an object whose lowest slice is this much wider than its top goes in wide end first
+END_SLICE_M = 0.01
+
+
+def _wide_end_down(world: World, obj: str) -> bool:
+    """Whether `obj` stands wide end down (an inverted bowl: its 10.7 cm rim under its 4.6 cm foot),
+    so that it goes into a drawer wide end first."""
+    pts = world.points(obj)
+    z = pts[:, 2]
+
+    def width(sl: np.ndarray) -> float:
+        return float(np.ptp(sl[:, :2], axis=0).max())
+
+    return width(pts[z < z.min() + END_SLICE_M]) > width(pts[z > z.max() - END_SLICE_M]) + WIDE_END_M
 
 
 def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, ...]], bool]) -> list[Step]:
@@ -139,13 +161,14 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
             steps += _opening(world, pred[1])
             opened.add(pred[1])
     for pred in todo:
-        if (
-            pred[0] == "in"
-            and _articulated(world, pred[2])
-            and pred[2] not in opened
-            and needs_opening(world, pred[2], holds(("open", pred[2])))
-        ):
-            steps += _opening(world, pred[2])
+        if pred[0] != "in" or not _articulated(world, pred[2]) or pred[2] in opened:
+            continue
+        # Wide end first, a drawer's mouth must be as wide as the drawer goes (libero_10-03's
+        # object_pose: at LIBERO's -0.146 an inverted bowl's rim caught the handles above and fell
+        # in on edge, jamming the close).
+        full = is_drawer(world, pred[2]) and _wide_end_down(world, pred[1])
+        if needs_opening(world, pred[2], holds(("open", pred[2]))) or (full and not fully_open(world, pred[2])):
+            steps += _opening(world, pred[2], full)
             opened.add(pred[2])
     for pred in todo:
         if pred[0] in PLACEMENT:
