@@ -85,3 +85,19 @@ def test_a_users_script_imports_libero_after_the_toolkit_without_prompt(tmp_path
     )
     assert proc.returncode == 0 and proc.stdout.strip().endswith("ok"), proc.stderr[-2000:]
     assert (config.stat().st_mtime_ns, config.read_bytes()) == before
+
+
+def test_the_config_does_not_depend_on_the_output_folder(tmp_path):
+    """Processes with other outputs (`VPRO_OUT`: the tests' scratch builds, a user's second output)
+    leave LIBERO's config as it is: they once rewrote it in turn, under a script reading it."""
+    from vpro_assets.core import paths
+
+    config = paths.libero_config_dir() / "config.yaml"
+    setup = "from vpro_assets.libero.bridge import write_libero_config; write_libero_config()"
+    env = {k: v for k, v in os.environ.items() if k != "LIBERO_CONFIG_PATH"}
+    subprocess.run([sys.executable, "-c", setup], env=env, check=True, timeout=120, stdin=subprocess.DEVNULL)
+    before = config.stat().st_mtime_ns, config.read_bytes()
+    for out in ("a", "b"):
+        subprocess.run([sys.executable, "-c", setup], env=env | {"VPRO_OUT": str(tmp_path / out)}, check=True,
+                       timeout=120, stdin=subprocess.DEVNULL)  # fmt: skip
+        assert (config.stat().st_mtime_ns, config.read_bytes()) == before

@@ -59,13 +59,16 @@ def init_state_path(suite: str, name: str) -> Path:
     return libero_root() / "init_files" / suite / f"{name}.pruned_init"
 
 
-def config_dict() -> dict[str, str]:
+def config_dict(config_dir: Path) -> dict[str, str]:
+    """LIBERO's config for the installed LIBERO. Its `datasets` (demonstrations, which the toolkit
+    never reads) lie beside the config, so the file does not depend on `VPRO_OUT`: processes with
+    different outputs would otherwise rewrite the one config in turn."""
     root = libero_root()
     return {
         "benchmark_root": str(root),
         "bddl_files": str(root / "bddl_files"),
         "init_states": str(root / "init_files"),
-        "datasets": str(paths.out_dir() / "datasets"),
+        "datasets": str(config_dir / "datasets"),
         "assets": str(assets_root()),
     }
 
@@ -74,7 +77,7 @@ def write_libero_config() -> Path:
     """Point `LIBERO_CONFIG_PATH` at a config LIBERO will accept without prompting."""
     config_dir = Path(os.environ.setdefault("LIBERO_CONFIG_PATH", str(paths.libero_config_dir())))
     config_file = config_dir / "config.yaml"
-    wanted = config_dict()
+    wanted = config_dict(config_dir)
     current = yaml.safe_load(config_file.read_text()) if config_file.exists() else None
     if current != wanted:
         config_dir.mkdir(parents=True, exist_ok=True)
