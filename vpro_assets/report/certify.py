@@ -11,8 +11,9 @@ the last one committed. `--redo` runs chosen cases afresh (an improved oracle) a
 The catalog record each case ran on is kept beside the database (`<results>.cases.json`, sha256 of
 the record): a case whose record changed is refused on `--resume` and left out of the certificate
 (the catalog may change under a long run; the cases that did not change keep their trials).
-Replays are kept beside the database (`<results>.replays.json`, keyed by case, trial and final-state
-fingerprint), so writing again after `--resume` replays only new failures. The first failed trial of
+Replays are kept beside the document's pictures (`docs/solvability/replays.json`, keyed by case,
+trial and final-state fingerprint) and committed with them, so writing again, on this machine or a
+fresh clone resuming from the committed certificate, replays only new failures. The first failed trial of
 a case is replayed rendered for its picture (a contact sheet in `docs/solvability/`); the next
 MAX_REPLAYS - 1 render-free (the others are listed as not replayed).
 """
@@ -221,8 +222,8 @@ def record_case_hashes(results: Path, cases: Sequence[dict], carried: Sequence[d
     write_text_atomic(_hashes_path(results), canonical_json(hashes))
 
 
-def _replays_path(results: Path) -> Path:
-    return results.with_name(results.name + ".replays.json")
+def _replays_path(pictures: Path) -> Path:
+    return pictures / "replays.json"
 
 
 def _picture_name(case_id: str) -> str:
@@ -231,14 +232,13 @@ def _picture_name(case_id: str) -> str:
 
 def explain_failures(
     results_map: dict[str, solvability.CaseResult],
-    results: Path,
     pictures: Path,
     settings: EpisodeSettings,
     replays: bool = True,
 ) -> dict[tuple[str, int], dict]:
     """(case, trial) -> {reason, reproduced, picture} for every failed trial, replayed where not
     cached (`replays=False`: the cached ones only)."""
-    path = _replays_path(results)
+    path = _replays_path(pictures)
     cache: dict[str, dict] = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
     out: dict[tuple[str, int], dict] = {}
     for cid, r in results_map.items():
@@ -306,7 +306,7 @@ def write_outputs(catalog_file: Path, results: Path, outputs: Outputs, replays: 
     results_map = solvability.collect(current, rows)
     settings = EpisodeSettings(**{**run["settings"], "render": False})
     outputs.pictures.mkdir(parents=True, exist_ok=True)
-    explained = explain_failures(results_map, results, outputs.pictures, settings, replays)
+    explained = explain_failures(results_map, outputs.pictures, settings, replays)
     certificate = solvability.certificate(results_map, catalog_sha, lock_sha, run["settings"], run["versions"])
     cert.write(certificate, outputs.certificate)
     rel = (
