@@ -90,6 +90,22 @@ def test_unbuilt_scene_case_is_named_with_the_build_command(tmp_path, monkeypatc
         check_built([case])
 
 
+def test_resume_asks_only_the_cases_left_to_run_to_be_built(tmp_path, monkeypatch):
+    """A resumed run over a task whose scene case the certificate holds runs on a machine where that
+    case is not built; asked to run it again (`redo`), it names the case and keeps its trials."""
+    monkeypatch.setenv("VPRO_OUT", str(tmp_path / "empty-out"))
+    case = next(c for c in CATALOG["cases"] if c["level"] == "scene")
+    committed = _committed(case["id"], [0, 1], [0, 1])
+    summary = run_certify(
+        [case], tmp_path / "c.sqlite", 2, True, "inline", 1, None, [case["id"]], carry_from=(CATALOG, committed)
+    )
+    assert summary.recorded == 0
+    with pytest.raises(VProError, match=rf"not built: {case['id']};"):
+        run_certify([case], tmp_path / "c.sqlite", 2, True, "inline", 1, None, [case["id"]], redo=[case["id"]])
+    with ResultsStore(tmp_path / "c.sqlite") as store:
+        assert len(store.episodes(RUN_ID)) == 2
+
+
 def test_stratified_sample_has_one_task_per_suite_and_one_case_per_scene_setting():
     sample = stratified_sample(CATALOG)
     normal = [c for c in sample if not c.get("setting")]

@@ -159,7 +159,6 @@ def run_certify(
     """Certify `cases` into the run of `results`. `carry_from` (catalog, certificate): on `resume`
     into a database without a run, start it from the certificate; `redo`: case ids whose trials in
     the database (or the certificate) are dropped and run again."""
-    check_built(cases)
     settings = EpisodeSettings(render=False)
     carried: list[dict] = []
     with ResultsStore(results) as store:
@@ -174,6 +173,10 @@ def run_certify(
             carried = carry_certificate(store, catalog, certificate, settings, skip=redo)
             exists = True
             log.info("carried %d case(s) from the certificate", len(carried))
+        # Only the cases with trials left to run need their scene built: a resumed run over a whole
+        # task does not ask a fresh machine to build the cases it has certified already.
+        done = {key for key in store.done_keys(RUN_ID) if key[0] not in redo} if exists else set()
+        check_built([c for c in cases if any((c["id"], t) not in done for t in range(trials))])
         if exists and redo:
             store.forget(RUN_ID, redo)
     record_case_hashes(results, cases, carried)
