@@ -88,3 +88,27 @@ def test_lying_bottle_pinched_where_the_hand_comes_down_beside_the_rack(scene):
     assert reach_height(boxes, middle, grasp.axis) > middle[2] + 0.04  # over the middle: on the rack
     assert reach_height(boxes, grasp.point, grasp.axis) <= grasp.point[2] + BLOCKED_M
     assert 0.01 <= np.linalg.norm(grasp.point - middle) <= 0.05
+
+
+def test_pot_held_by_its_handle_laid_down_toward_the_grip(scene):
+    """A moka pot held by its handle, laid down where it must end lower than it stands (libero_10-08's
+    inverted pot stands 0.9 cm too tall for the stove): tipped out along the line from the arm's
+    base it hangs over the grip, too tall still; tipped toward the grip it hangs under it. The hand
+    rises first so the tipping pot clears the stove (tipped at the carry's height, it struck the
+    plate and slipped out of the fingers). Here the upright pot of libero_10-08/normal is given a
+    limit 5 mm under its standing height; laid, it ends under it, on its side on the stove."""
+    from vpro_assets.rollout.policies.oracle.pick import pick
+    from vpro_assets.rollout.policies.oracle.pick_place import Destination, lay_down
+
+    s = scene("libero_10-08/normal")
+    w = s.world
+    pot, region = "moka_pot_1", "flat_stove_1_cook_region"
+    d = resolve(w, "on", region, pot)
+    limit = d.surface_z + lay.rise(w, pot) - 0.005
+    s.run(pick(w, pot), limit=150)
+    dest = Destination(d.xy, d.surface_z, d.instance, d.relation, limit)
+    s.run(lay_down(w, pot, dest, region), limit=260)
+    s.run(motion.hold_still(w, motion.OPEN, 30), limit=31)
+    up = w.d.xmat[w.entity(pot).root].reshape(3, 3)[:, 2]
+    assert abs(up[2]) < 0.5, up  # on its side
+    assert w.body_pos(pot)[2] < limit and "flat_stove_1" in w.touching(pot)

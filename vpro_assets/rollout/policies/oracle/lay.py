@@ -10,6 +10,13 @@ hand tips forward about the fingers' axis to point out along that line, LAY_TILT
 horizontal; the object's far end comes down first, and let go there it falls flat, its body position
 a radius over the top.
 
+An object held off its middle (libero_10-08's inverted moka pot, by its handle) tipped out along
+that line hangs over the grip and is still too tall (SkillFailed, 10 of 10 trials); it is
+tipped toward the grip instead (`toward_grip`), hanging under it, and the hand first rises so the
+tipping object clears the surface (`clear_tip`: tipped at the carry's height, the pot struck the
+stove and slipped out of the fingers). Laid so, its body ends at z 0.977, 3 cm under the limit
+(1.0075; standing on its lid, 1.016).
+
 A region on a slope (`spot`) has its box tilted with it: libero_goal-09's wine rack shelf rises 31
 degrees toward the back from a 1.4 cm lip, and its region's box (in LIBERO's `mat @ (p - site)`)
 reaches 0-10 cm up the shelf from the lip and 2.2 cm either side of a plane 0.5 cm over the shelf.
@@ -36,6 +43,7 @@ LEVEL_COS = 0.9
 TURN_SPEED = 0.5  # of the action's full turn: turning at full speed draws the grip site off its place
 TURN_TOL_RAD, TURN_STEPS = 0.05, 60
 AIM_TOL_M, AIM_STEPS = 0.01, 40
+CLEAR_TIP_M = 0.02  # the tipped object's lowest point this far over the surface before it tips
 
 
 def rise(world: World, held: str) -> float:
@@ -62,6 +70,12 @@ def spot(world: World, region: str, xy: np.ndarray) -> tuple[np.ndarray, np.ndar
     middle = world.site_mat(region).T @ [0.0, 0.0, world.site_size(region)[2] + LIBERO_ON_HEIGHT_M / 2]
     level = np.array([-up[1], up[0], 0.0]) / np.linalg.norm(up[:2])
     return (world.site_pos(region) + middle)[:2], level * np.sign(level @ out)
+
+
+def toward_grip(world: World, held: str) -> np.ndarray:
+    """The level direction from the held object's body position to the grip site."""
+    d = np.append((world.eef() - world.body_pos(held))[:2], 0.0)
+    return d / np.linalg.norm(d)
 
 
 def orientations(world: World, along: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -96,6 +110,15 @@ def carry_target(world: World, held: str, xy: np.ndarray, down: np.ndarray, tipp
     _, body = turned(world, held, down)
     grip = xy - (laid.min(0) + laid.max(0))[:2] / 2
     return grip + body[:2]
+
+
+def clear_tip(world: World, held: str, tipped: np.ndarray, surface_z: float) -> Actions:
+    """Rise, where the object tipped would reach below CLEAR_TIP_M over the surface."""
+    pts, _ = turned(world, held, tipped)
+    low = world.eef()[2] + float(pts[:, 2].min())
+    if low < surface_z + CLEAR_TIP_M:
+        goal = world.eef() + [0.0, 0.0, surface_z + CLEAR_TIP_M - low]
+        yield from motion.move_to(world, goal, world.hold_grip, world.eef_mat(), tol=0.01, max_steps=40, speed=0.6)
 
 
 def tip(world: World, tipped: np.ndarray) -> Actions:

@@ -11,7 +11,9 @@ comes down on its way once nothing ahead stands higher than what is at the desti
 arm, stretched far out, stops below the height asked, it carries on at the height it reached. The
 object is lowered until it touches something or reaches the destination's surface, then released.
 An object held standing taller than LIBERO's `On` of a region allows (an inverted wine bottle) is
-laid on its side there (`lay`).
+laid on its side there (`lay`). An object that turned in the fingers on the way is turned back to
+how it stood before it is lowered (`level`); the first of several objects for one region goes where
+it leaves room for the others (`room`).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vpro_assets.rollout.policies.oracle import lay, motion, nudge
+from vpro_assets.rollout.policies.oracle import lay, level, motion, nudge, room
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
@@ -62,8 +64,9 @@ def _instances(world: World) -> list[str]:
     return [inst for inst, _ in world.task.objects + world.task.fixtures]
 
 
-def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
-    """Where `held` must go for the goal predicate (relation held arg)."""
+def resolve(world: World, relation: str, arg: str, held: str, coming: tuple[str, ...] = ()) -> Destination:
+    """Where `held` must go for the goal predicate (relation held arg); `coming`: the other objects
+    still to go onto the same region after it (`room`)."""
     instances = _instances(world)
     if arg in instances:
         box = world.box(arg)
@@ -80,11 +83,26 @@ def resolve(world: World, relation: str, arg: str, held: str) -> Destination:
         radius = float(np.max(world.box(held).size[:2])) / 2
         xy = (handle_point(world, joint) - axis * (DRAWER_FRONT_M + radius + 0.015))[:2]
     else:  # beside what is there already: a second can set on the first (a wider deformed one) stays on it
-        xy = free_spot(world, arg, (held, owner), xy)
+        xy = _shared_spot(world, arg, held, owner, xy, coming)
     surface = support_height(world, xy, exclude=(held,))
     top = world.site_pos(arg)[2] + abs(world.site_mat(arg) @ world.site_size(arg))[2]
     limit = top + lay.LIBERO_ON_HEIGHT_M if relation == "on" else np.inf
     return Destination(xy, surface, owner, relation, limit)
+
+
+def _shared_spot(
+    world: World, region: str, held: str, owner: str, center: np.ndarray, coming: tuple[str, ...]
+) -> np.ndarray:
+    """`free_spot`, or where others still come or one stands at the centre, `room.spot`."""
+    xy = free_spot(world, region, (held, owner), center)
+    if not coming and np.array_equal(xy, center):
+        return xy
+    objects = [o for o, _ in world.task.objects]
+    surface = support_height(world, center, exclude=tuple(objects))
+    half = np.abs(world.site_mat(region) @ world.site_size(region))[:2]
+    others = [o for o in objects if o != held and np.all(np.abs(world.box(o).center[:2] - center) < half + 0.1)]
+    spot = room.spot(world, region, held, owner, surface, others, bool(coming))
+    return xy if spot is None else spot
 
 
 def free_spot(world: World, region: str, skip: tuple[str, str], center: np.ndarray) -> np.ndarray:
@@ -249,10 +267,11 @@ def _lower(world: World, held: str, dest: Destination, orient: np.ndarray, grip:
         yield motion.action_to(world, goal, grip, orient, speed=0.5)
 
 
-def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions:
+def pick_place(world: World, held: str, relation: str, dest_arg: str, coming: tuple[str, ...] = ()) -> Actions:
     """Pick `held` and put it (relation) `dest_arg`; first push it clear of a neighbour that stops
     the hand over its pinch (`nudge`). The grasp is planned once: what the nudge tests is the pinch
-    the pick then makes (planned anew only after a push moved the object)."""
+    the pick then makes (planned anew only after a push moved the object). `coming`: the objects
+    still to go onto the same region after this one (`room`)."""
     # Whether it stands too tall is read from the pose it stands in, not the one it hangs in once
     # lifted: libero_goal-02's lying bottle, pinched near its neck, swings in the fingers, its base
     # up to 11 cm over its neck; laid down, 1 of its 7 solved trials was lost. (libero_10's moka
@@ -260,8 +279,9 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions
     rise = lay.rise(world, held)
     grasp = plan_grasp(world, held)
     pushed = yield from nudge.clear_for_pick(world, held, grasp)
+    taken = level.rotation(world, held)
     yield from pick(world, held, planned=None if pushed else grasp)
-    dest = resolve(world, relation, dest_arg, held)
+    dest = resolve(world, relation, dest_arg, held, coming)
     # Onto a slope, also what hangs too tall once lifted: libero_goal-09's lying bottle, pinched off
     # its middle (its neck under the rack, `grasp.along_free`), hangs neck down; let go over the
     # rack's lip, it fell to the table.
@@ -270,6 +290,7 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str) -> Actions
         yield from lay_down(world, held, dest, dest_arg)
         return
     yield from carry(world, held, dest.xy)
+    yield from level.upright(world, held, taken)
     yield from lower_and_release(world, held, dest)
 
 
@@ -279,9 +300,16 @@ def lay_down(world: World, held: str, dest: Destination, region: str) -> Actions
     its extent centred at the region's spot for it (`lay.spot`), lowered and let go."""
     xy, along = lay.spot(world, region, dest.xy)
     down, tipped = lay.orientations(world, along)
+    if dest.surface_z + lay.laid_rise(world, held, tipped) > dest.max_body_z and not lay.sloped(world, region):
+        # Held off its middle (a moka pot by its handle), tipped toward the grip: the object then
+        # hangs under the grip, not over it (libero_10-08's inverted pot, tipped out along the line
+        # from the base, was too tall still: 10 of 10 trials failed).
+        along = lay.toward_grip(world, held)
+        down, tipped = lay.orientations(world, along)
     if dest.surface_z + lay.laid_rise(world, held, tipped) > dest.max_body_z:
         raise SkillFailed(f"{held} stands too tall for {dest.instance} even laid on its side")
     yield from carry(world, held, lay.carry_target(world, held, xy, down, tipped), orient=down)
+    yield from lay.clear_tip(world, held, tipped, dest.surface_z)
     yield from lay.tip(world, tipped)
     yield from lay.centre_over(world, held, xy)
     here = Destination(world.body_pos(held)[:2], dest.surface_z, dest.instance, dest.relation, dest.max_body_z)

@@ -88,8 +88,8 @@ def _put_in(world: World, held: str, region: str) -> Actions:
     return cavity.put_in(world, held, region)
 
 
-def _pick_place(world: World, held: str, relation: str, dest: str) -> Actions:
-    return pick_place(world, held, relation, dest)
+def _pick_place(world: World, held: str, relation: str, dest: str, coming: tuple[str, ...] = ()) -> Actions:
+    return pick_place(world, held, relation, dest, coming)
 
 
 def _drawers_out_of_the_way(world: World, goal: list[tuple[str, ...]], todo: list[tuple[str, ...]]) -> list[Step]:
@@ -178,7 +178,10 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
             elif pred[0] == "in" and cavity.covered(world, dest) is not None:
                 steps.append(Step("cavity", pred, partial(_put_in, held=obj, region=dest)))
             else:
-                steps.append(Step("pick_place", pred, partial(_pick_place, held=obj, relation=pred[0], dest=dest)))
+                # The objects that go onto the same region after this one (`room`).
+                coming = tuple(p[1] for p in todo[todo.index(pred) + 1 :] if p[0] == pred[0] and p[2] == dest)
+                run = partial(_pick_place, held=obj, relation=pred[0], dest=dest, coming=coming)
+                steps.append(Step("pick_place", pred, run))
     for pred in todo:
         if pred[0] == "close":
             steps.append(_open_step(world, pred[1], False))

@@ -1,0 +1,57 @@
+"""Two objects onto one region (`room`) and a held object turned back upright before it is set down
+(`level`), on libero_10-08 ("put both moka pots on the stove").
+
+The stove's plate is 19 x 19 cm; LIBERO's `On` wants each pot's body position inside the cook
+region's 15 x 15 cm box. A pot pinched by its handle turns in the fingers about their axis.
+"""
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from vpro_assets.rollout.policies.oracle import level, motion, room
+from vpro_assets.rollout.policies.oracle.pick import pick
+from vpro_assets.rollout.policies.oracle.pick_place import resolve
+
+CASE = "libero_10-08/normal"
+STOVE, REGION = "flat_stove_1", "flat_stove_1_cook_region"
+
+
+def test_first_of_two_pots_leaves_the_plate_room_for_the_second(scene):
+    """Alone, the first pot goes to the region's centre (as before); with the second still to come,
+    it goes against one side of the plate, inside LIBERO's box, leaving a strip of plate beside it
+    wider than the second pot and the gap between them (9.4 cm against 8.1 + 1)."""
+    s = scene(CASE)
+    w = s.world
+    center = w.site_pos(REGION)[:2]
+    alone = resolve(w, "on", REGION, "moka_pot_1")
+    np.testing.assert_allclose(alone.xy, center)
+    first = resolve(w, "on", REGION, "moka_pot_1", coming=("moka_pot_2",))
+    half = np.abs(w.site_size(REGION))[:2]
+    assert np.all(np.abs(first.xy - center) < half), first.xy - center
+    lo, hi = room.plate(w, STOVE, REGION, first.surface_z)
+    assert np.all(hi - lo > 0.18), (lo, hi)  # the plate, not only the pieces under the region's box
+    box, body = w.box("moka_pot_1"), w.body_pos("moka_pot_1")[:2]
+    f_lo, f_hi = box.lo[:2] - body + first.xy, box.hi[:2] - body + first.xy
+    assert np.all(f_lo >= lo) and np.all(f_hi <= hi), (f_lo, f_hi, lo, hi)
+    strip = max(np.max(f_lo - lo), np.max(hi - f_hi))
+    second = w.box("moka_pot_2")
+    assert strip > np.min(second.size[:2]) + room.GAP_M, strip
+
+
+def test_pot_turned_in_the_fingers_is_turned_back_upright(scene):
+    """The pot, lifted by its handle, is turned 30 degrees with the hand about the fingers' axis (as
+    the deformed pot of multipeak-s1 swung when the carry set off); `level.upright` turns the hand
+    until the pot stands within 5 degrees of upright again. Turned less than MAX_TILT_RAD, it is left."""
+    s = scene(CASE)
+    w = s.world
+    taken = level.rotation(w, "moka_pot_1")
+    s.run(pick(w, "moka_pot_1"), limit=150)
+    assert level.correction(w, "moka_pot_1", taken).magnitude() < level.MAX_TILT_RAD
+    assert not list(level.upright(w, "moka_pot_1", taken))  # hangs near upright: nothing to do
+    turn = Rotation.from_rotvec(np.radians(30.0) * w.finger_axis()).as_matrix()
+    s.run(motion.move_to(w, w.eef(), w.hold_grip, turn @ w.eef_mat(), tol=0.02, max_steps=60), limit=61)
+    assert level.correction(w, "moka_pot_1", taken).magnitude() > np.radians(20.0)
+    s.run(level.upright(w, "moka_pot_1", taken), limit=level.TURN_STEPS + 1)
+    s.run(motion.hold_still(w, w.hold_grip, 10), limit=11)
+    assert level.correction(w, "moka_pot_1", taken).magnitude() < np.radians(5.0)
+    assert w.held("moka_pot_1")
