@@ -18,7 +18,7 @@ it leaves room for the others (`room`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -26,6 +26,7 @@ from vpro_assets.rollout.policies.oracle import lay, level, motion, nudge, room
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
+from vpro_assets.rollout.policies.oracle.fit import fit_turn
 from vpro_assets.rollout.policies.oracle.grasp import plan_grasp
 from vpro_assets.rollout.policies.oracle.motion import OPEN, Actions
 from vpro_assets.rollout.policies.oracle.pick import pick
@@ -289,7 +290,17 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str, coming: tu
     if dest.surface_z + rise > dest.max_body_z or hangs_tall:
         yield from lay_down(world, held, dest, dest_arg)
         return
-    yield from carry(world, held, dest.xy)
+    # Into a region narrower than the object as held (a caddy's compartment): turned to fit (`fit`).
+    fit = (
+        fit_turn(world, held, dest_arg)
+        if relation == "in" and world.has_site(dest_arg) and not is_drawer(world, dest_arg)
+        else None
+    )
+    orient = None
+    if fit is not None:
+        orient, xy = fit
+        dest = replace(dest, xy=xy)
+    yield from carry(world, held, dest.xy, orient=orient)
     yield from level.upright(world, held, taken)
     yield from lower_and_release(world, held, dest)
 
