@@ -88,3 +88,23 @@ def test_lying_bottle_pinched_where_the_hand_comes_down_beside_the_rack(scene):
     assert reach_height(boxes, middle, grasp.axis) > middle[2] + 0.04  # over the middle: on the rack
     assert reach_height(boxes, grasp.point, grasp.axis) <= grasp.point[2] + BLOCKED_M
     assert 0.01 <= np.linalg.norm(grasp.point - middle) <= 0.05
+
+
+LYING_MUG = "libero_10-06/task_precondition_variation/object_pose-v1-lying"
+MUG, PLATE = "porcelain_mug_1", "plate_1"
+
+
+def test_lying_mug_is_set_down_on_the_plate_before_it_is_let_go(scene):
+    """libero_10-06's precondition case lays the mug on its side (`lay.lying`: its up axis level;
+    Normal's mug stands). Pinched 6 cm off its middle and let go 1.2 cm over the plate's rim, it
+    rolled off the plate (trial 1, and 5 more of 10); set down on the plate before the fingers open,
+    it stays there: LIBERO's `On` holds once it has come to rest. The scene is built first (a no-op
+    when it is current)."""
+    assert not lay.lying(scene("libero_10-06/normal").world, MUG)
+    build_scene_case(LYING_MUG)
+    s = scene(LYING_MUG, trial=1)
+    w = s.world
+    assert lay.lying(w, MUG)
+    steps = s.run(pick_place(w, MUG, "on", PLATE), limit=200)
+    s.run(motion.hold_still(w, motion.OPEN, 40), limit=45)
+    assert s.holds(("on", MUG, PLATE)), (steps, w.body_pos(MUG) - w.body_pos(PLATE))
