@@ -35,7 +35,7 @@ def test_book_turned_into_the_caddy_back_compartment(scene):
             break
         assert n < 200, "book not in the back compartment after 200 steps"
     assert fit.overflow(w.points(BOOK), half) < 0  # went in turned to fit
-    up = w.d.xmat[w.m.body(f"{BOOK}_main").id].reshape(3, 3)[:, 2]
+    up = w.body_mat(BOOK)[:, 2]
     assert up[2] > 0.95, up  # held upright, not tipped in
 
 

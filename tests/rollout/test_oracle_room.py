@@ -44,7 +44,7 @@ def test_pot_turned_in_the_fingers_is_turned_back_upright(scene):
     until the pot stands within 5 degrees of upright again. Turned less than MAX_TILT_RAD, it is left."""
     s = scene(CASE)
     w = s.world
-    taken = level.rotation(w, "moka_pot_1")
+    taken = w.body_mat("moka_pot_1")
     s.run(pick(w, "moka_pot_1"), limit=150)
     assert level.correction(w, "moka_pot_1", taken).magnitude() < level.MAX_TILT_RAD
     assert not list(level.upright(w, "moka_pot_1", taken))  # hangs near upright: nothing to do

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vpro_assets.objects.deformed import UP_AXES
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.grasp import ROBOT_BASE_XY, grasp_orientation
 from vpro_assets.rollout.policies.oracle.motion import Actions
@@ -44,11 +45,23 @@ TURN_SPEED = 0.5  # of the action's full turn: turning at full speed draws the g
 TURN_TOL_RAD, TURN_STEPS = 0.05, 60
 AIM_TOL_M, AIM_STEPS = 0.01, 40
 CLEAR_TIP_M = 0.02  # the tipped object's lowest point this far over the surface before it tips
+# An object whose up axis (as LIBERO stands it) is farther than this from vertical lies on its side.
+LYING_COS = np.cos(np.radians(45.0))
 
 
 def rise(world: World, held: str) -> float:
     """How high an object's body position stands over its lowest point, as it stands (or is held)."""
     return float(world.body_pos(held)[2] - world.points(held)[:, 2].min())
+
+
+def lying(world: World, instance: str) -> bool:
+    """Whether `instance` lies on its side: its up axis as LIBERO stands it (`UP_AXES`, in its
+    body's frame) more than 45 degrees from the vertical. An object of no measured up axis: no."""
+    up = UP_AXES.get(dict(world.task.objects).get(instance, ""))
+    if up is None:
+        return False
+    axis = world.body_mat(instance)[:, "xyz".index(up[1])] * (1.0 if up[0] == "+" else -1.0)
+    return bool(axis[2] < LYING_COS)
 
 
 def sloped(world: World, region: str) -> bool:

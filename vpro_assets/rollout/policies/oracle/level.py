@@ -25,15 +25,10 @@ TURN_SPEED = 0.5  # of the action's full turn, as `lay.tip`: faster draws the gr
 TURN_TOL_RAD, TURN_STEPS = 0.05, 40
 
 
-def rotation(world: World, held: str) -> np.ndarray:
-    """The held object's orientation (its LIBERO body's rotation matrix)."""
-    return world.d.xmat[world.entity(held).root].reshape(3, 3).copy()
-
-
 def correction(world: World, held: str, taken: np.ndarray) -> Rotation:
     """The smallest world rotation that brings the object's up axis, as it stood when taken (its
     orientation `taken`), back to vertical."""
-    up_now = rotation(world, held) @ (taken.T @ [0.0, 0.0, 1.0])
+    up_now = world.body_mat(held) @ (taken.T @ [0.0, 0.0, 1.0])
     turn, _ = Rotation.align_vectors([[0.0, 0.0, 1.0]], [up_now])
     return turn
 

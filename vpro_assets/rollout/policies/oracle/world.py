@@ -193,6 +193,10 @@ class World:
         """LIBERO's position of an object: its `<instance>_main` body (what On and In test)."""
         return self.d.xpos[self.entity(instance).root].copy()
 
+    def body_mat(self, instance: str) -> np.ndarray:
+        """The rotation of the object's `<instance>_main` body (its columns: the body's axes in the world)."""
+        return self.d.xmat[self.entity(instance).root].reshape(3, 3).copy()
+
     def site_pos(self, name: str) -> np.ndarray:
         return self.d.site_xpos[self._id(mujoco.mjtObj.mjOBJ_SITE, name)].copy()
 
