@@ -94,6 +94,61 @@ def test_turned_mug_taken_by_its_handle_and_turned_into_the_microwave(scene):
     assert s.oracle_until_success(limit=320)
 
 
+def _set_pose(s, instance: str, pos, quat=None) -> None:
+    """Put an object's free body at `pos` (and `quat`) and let it settle."""
+    w = s.world
+    adr = w.m.jnt_qposadr[w.m.body_jntadr[w.entity(instance).root]]
+    w.d.qpos[adr : adr + 3] = pos
+    if quat is not None:
+        w.d.qpos[adr + 3 : adr + 7] = quat
+    s.cenv.sim.forward()
+    s.wait(10)
+
+
+def test_half_turn_goes_the_way_the_wrist_has_room_for(scene):
+    """A half turn about the vertical, commanded at once, goes the short way, whichever that is;
+    with the wrist's last joint 0.3 rad from its upper limit, `wrist_turn` picks the other way."""
+    s = scene("libero_10-09/normal")
+    w = s.world
+    hi = float(w.m.jnt_range[w.wrist_joint][1])
+    s.set_joint(w.wrist_joint, hi - 0.3)
+    per_rad = float(w.d.xaxis[w.wrist_joint][2])
+    for angle in (np.pi - 0.01, -(np.pi - 0.01)):
+        turn = cavity.wrist_turn(w, angle)
+        assert w.wrist_room(turn * per_rad) > 0, (angle, turn)
+
+
+def test_inverted_mug_handle_inward_is_turned_the_way_the_wrist_allows(scene):
+    """libero_10-09's mug upside down with its handle toward the opening (as its object-pose case's
+    trial 0 starts it; set here so a clean clone needs no built scene case): taken by the handle, it
+    turns half a circle in the hand. The short way took the wrist into its limit and the mug stayed
+    handle inward, the hand stuck; turned the way the wrist has room for, it goes in."""
+    s = scene("libero_10-09/normal")
+    mug, region = "white_yellow_mug_1", "microwave_1_heating_region"
+    _set_pose(s, mug, [-0.03, -0.088, 1.004], [0.0, -0.7071068, -0.7071068, 0.0])
+    cav = cavity.covered(s.world, region)
+    assert cavity.handle_side(s.world, mug, -cav.inward) @ cav.inward > 0.9  # handle toward the opening
+    s.run(cavity.put_in(s.world, mug, region), limit=400)
+    assert s.holds(("in", mug, region))
+
+
+def test_far_mug_brought_near_and_put_in_past_a_mug_in_front(scene):
+    """libero_10-09 with its mug 0.79 m out from the arm's base, handle away from the microwave, and
+    the other mug standing in front of the microwave (as the familiar-position case's trial 1 has
+    them; set here). Taken by the handle out there, the arm was stretched, its elbow at its limit,
+    and could not bring the mug back; it is first set down nearer (`bring_near`). Brought down 3 cm in
+    front of the microwave, the handle came down on the mug in front; it comes down at the mouth."""
+    s = scene("libero_10-09/normal")
+    mug, other, region = "white_yellow_mug_1", "porcelain_mug_1", "microwave_1_heating_region"
+    _set_pose(s, other, [0.019, 0.03, 0.898])
+    _set_pose(s, mug, [0.093, -0.138, 0.9])
+    cav = cavity.covered(s.world, region)
+    toward = cavity.handle_side(s.world, mug, -cav.inward)
+    assert cavity._out_of_reach(s.world, mug, toward)
+    s.run(cavity.put_in(s.world, mug, region), limit=450)
+    assert s.holds(("in", mug, region))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("trial", [0, 7])
 def test_closed_microwave_case_solved_within_libero_10_limit(trial):

@@ -8,6 +8,9 @@ in as far as the hand stays outside the mouth (the hand rises into the top plate
 released. It is then pushed deeper by the closed fingers, the hand tilted so that the fingertips
 lead the wrist into the mouth, until its body position is well inside the region and its front
 is behind the front face (where the door closes), or the push stops moving it.
+Taken where the arm is stretched (a handle far out), the object is first set down nearer the arm;
+the turn in the hand goes the way the wrist has room for; and when something stands in front of
+the opening where the object would hang, it comes down at the mouth instead.
 """
 
 from __future__ import annotations
@@ -19,11 +22,12 @@ import numpy as np
 from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
-from vpro_assets.rollout.policies.oracle.grasp import handle
+from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
+from vpro_assets.rollout.policies.oracle.grasp import ROBOT_BASE_XY, handle, outer_part_grasp
 from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
 from vpro_assets.rollout.policies.oracle.pick import pick
-from vpro_assets.rollout.policies.oracle.pick_place import carry
+from vpro_assets.rollout.policies.oracle.pick_place import Destination, carry, lower_and_release, support_height
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 HAND_HEADROOM_M = 0.19  # a region with less free height over its floor is covered
@@ -31,12 +35,24 @@ HAND_MARGIN_M = 0.012
 HAND_HALF_DEPTH_M = HAND_PARTS[2][2] + HAND_MARGIN_M  # the palm's half width across the closing axis, and a margin
 FLOOR_CLEAR_M = 0.012  # the object's bottom this far above the cavity's floor while sliding in
 STAGE_M = 0.03  # the object this far in front of the cavity's front face before sliding in
+# When something stands where the object, brought down there, would hang (a mug's handle behind it):
+# its front this far in front of the ceiling's front edge instead, as near the cavity as the ceiling
+# lets it come down (libero_10-09's familiar-position red mug, 1.047 m tall, 10 cm in front of the
+# microwave: the white mug's handle came down on it and stayed there).
+MOUTH_STAGE_M = 0.015
+STAGE_MARGIN_M = 0.015
 INSIDE_M = 0.03  # the object's body position this far past the region's near side
 BEHIND_FRONT_M = 0.008  # the object's front this far behind the front face
 PUSH_TILT_RAD = 0.6  # fingertips lead the wrist by about 6 cm into the mouth
 PUSH_HEIGHT_M = 0.025  # fingertips this far above the floor while pushing
 PUSH_STEP_M = 0.01
 TURN_STEPS = 30
+# A handle pinched farther than this from the arm's base leaves the arm stretched, its elbow at its
+# limit: libero_10-09's familiar-position mug, its handle's grip 0.786 m out at 1.0 m, was lifted but
+# could then not be carried back toward the base (the grip site stayed 8 cm out from the stage).
+CARRY_REACH_M = 0.74
+NEAR_MARGIN_M = 0.02
+TURN_TOL, WAY_TOL = 0.05, 0.3  # rad: a turn's end, and its way points (passed on the move)
 WALL_PROBE_M = 0.06  # a side counts as walled when a geom lies this far past the region's box
 
 
@@ -116,18 +132,80 @@ def _signed_angle(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.arctan2(a[0] * b[1] - a[1] * b[0], a[0] * b[0] + a[1] * b[1]))
 
 
+def _grip_distance(world: World, held: str, toward: np.ndarray) -> float:
+    """How far from the arm's base the grip site takes the part of `held` sticking out toward
+    `toward` (its handle); the body position's when it has no such thin part."""
+    grasp = outer_part_grasp(world, held, toward)
+    point = world.body_pos(held) if grasp is None else grasp.point
+    return float(np.linalg.norm(point[:2] - ROBOT_BASE_XY))
+
+
+def _out_of_reach(world: World, held: str, toward: np.ndarray) -> bool:
+    return _grip_distance(world, held, toward) > CARRY_REACH_M
+
+
+def bring_near(world: World, held: str, toward: np.ndarray) -> Actions:
+    """Take `held` by its grasp nearest the arm (`pick`'s default) and set it down nearer the arm's
+    base, its handle's grip within CARRY_REACH_M of it, so that it can then be taken by the handle
+    and carried with the elbow bent."""
+    excess = _grip_distance(world, held, toward) - CARRY_REACH_M + NEAR_MARGIN_M
+    start = world.body_pos(held)[:2]
+    home = (ROBOT_BASE_XY - start) / np.linalg.norm(ROBOT_BASE_XY - start)
+    xy = start + home * excess
+    yield from pick(world, held)
+    dest = Destination(xy, support_height(world, xy, exclude=(held,)), "table", "on")
+    yield from carry(world, held, xy)
+    yield from lower_and_release(world, held, dest)
+
+
+def _stage_taken(world: World, held: str, region: str, body_xy: np.ndarray, bottom: float) -> bool:
+    """Whether something other than the cavity's owner stands higher than `bottom` where the held
+    object (its footprint as it hangs now), its body position moved over `body_xy`, comes down."""
+    own = object_boxes(world, held)
+    own = own + np.append(body_xy - world.body_pos(held)[:2], 0.0)
+    lo, hi = own[:, 0, :2].min(0) - STAGE_MARGIN_M, own[:, 1, :2].max(0) + STAGE_MARGIN_M
+    boxes = obstacle_boxes(world, (held, owner_of(world, region)))
+    near = np.all(boxes[:, 0, :2] < hi, axis=1) & np.all(boxes[:, 1, :2] > lo, axis=1)
+    return bool(np.any(near & (boxes[:, 1, 2] > bottom)))
+
+
+def wrist_turn(world: World, angle: float) -> float:
+    """Of turning the hand `angle` about the vertical or the other way round to the same heading,
+    the one that keeps the wrist's last joint within its range (an inverted mug, taken by its
+    handle on the opening's side, turns half a circle: the short way took libero_10-09's wrist
+    from 2.24 rad into its 2.90 limit, and the hand stayed there with the mug's handle inward)."""
+    per_rad = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per turn about the vertical
+    other = angle - 2 * np.pi * np.sign(angle) if angle else angle
+    return max((angle, other), key=lambda a: world.wrist_room(a * per_rad))
+
+
+def turn_about_vertical(world: World, angle: float) -> Actions:
+    """Turn the hand `angle` about the vertical at the grip site, the way the wrist has room for,
+    through way points at most a quarter turn apart (a half turn commanded at once goes the short
+    way, whichever that is)."""
+    angle = wrist_turn(world, angle)
+    start, at = world.eef_mat(), world.eef()
+    pieces = max(1, int(np.ceil(abs(angle) / (np.pi / 2) - 1e-6)))
+    for k in range(1, pieces + 1):
+        orient = quat_matrix(axis_angle_quat([0, 0, 1], angle * k / pieces)) @ start
+        last = k == pieces
+        yield from motion.move_to(
+            world, at, world.hold_grip, orient, tol=0.01, max_steps=TURN_STEPS, turn_tol=TURN_TOL if last else WAY_TOL
+        )
+
+
 def put_in(world: World, held: str, region: str) -> Actions:
     """Pick `held` and put it into the covered cavity of `region`."""
     cav = covered(world, region)
     if cav is None:
         raise SkillFailed(f"{region} is not a covered cavity open on one side")
     toward = handle_side(world, held, -cav.inward)
+    if _out_of_reach(world, held, toward):
+        yield from bring_near(world, held, toward)
+        toward = handle_side(world, held, -cav.inward)
     yield from pick(world, held, toward=toward)
     # Turn the held object about the grip so that what was taken leads out of the opening.
-    turn = quat_matrix(axis_angle_quat([0, 0, 1], _signed_angle(toward, -cav.inward)))
-    yield from motion.move_to(
-        world, world.eef(), world.hold_grip, turn @ world.eef_mat(), tol=0.01, max_steps=TURN_STEPS
-    )
+    yield from turn_about_vertical(world, _signed_angle(toward, -cav.inward))
     grip = world.eef()[:2] - world.body_pos(held)[:2]
     box = world.box(held)
     hang = world.eef()[2] - box.lo[2]
@@ -140,6 +218,8 @@ def put_in(world: World, held: str, region: str) -> Actions:
     orient = world.eef_mat()
     z = cav.floor + FLOOR_CLEAR_M + hang
     stage = origin_at(cav.front - ahead - STAGE_M) + grip
+    if _stage_taken(world, held, region, stage - grip, cav.floor + FLOOR_CLEAR_M):
+        stage = origin_at(cav.mouth - ahead - MOUTH_STAGE_M) + grip
     # Over the stage point at carrying height, then down in front of the opening.
     yield from carry(world, held, stage - grip)
     yield from motion.move_to(world, [*stage, z], CLOSE, orient, tol=0.01, max_steps=120, speed=0.5)
