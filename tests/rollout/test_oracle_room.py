@@ -55,3 +55,13 @@ def test_pot_turned_in_the_fingers_is_turned_back_upright(scene):
     s.run(motion.hold_still(w, w.hold_grip, 10), limit=11)
     assert level.correction(w, "moka_pot_1", taken).magnitude() < np.radians(5.0)
     assert w.held("moka_pot_1")
+
+
+def test_a_region_of_the_table_has_no_plate(scene):
+    """A region of the table (libero_10-06's right of the plate) has no plate of its own: `plate` is
+    None and the spot falls back to `free_spot`. Its owner, the table, has no `_main` body: asking
+    for one raised inside every trial whose region centre was taken (libero_10-06's lying mug)."""
+    w = scene("libero_10-06/normal").world
+    region = "living_room_table_plate_right_region"
+    assert room.plate(w, "living_room_table", region, w.table_z) is None
+    assert room.spot(w, region, "chocolate_pudding_1", "living_room_table", w.table_z, [], True) is None

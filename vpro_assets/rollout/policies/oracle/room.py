@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vpro_assets.core.errors import VProError
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes
 from vpro_assets.rollout.policies.oracle.grasp import ROBOT_BASE_XY
 from vpro_assets.rollout.policies.oracle.world import World
@@ -35,7 +36,7 @@ def plate(world: World, owner: str, region: str, surface_z: float) -> tuple[np.n
     the region's box; None when the owner has none (a region of the table)."""
     try:
         boxes = object_boxes(world, owner)
-    except (KeyError, ValueError):
+    except (KeyError, ValueError, VProError):  # a region of the table: its owner has no body of its own
         return None
     center, half = world.site_pos(region)[:2], _half(world, region) + REACH_M
     level = np.abs(boxes[:, 1, 2] - surface_z) < LEVEL_M
