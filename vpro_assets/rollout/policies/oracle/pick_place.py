@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vpro_assets.rollout.policies.oracle import lay, motion, nudge
+from vpro_assets.rollout.policies.oracle import lay, motion, nudge, reach
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
@@ -173,6 +173,7 @@ def carry(
     rest = np.maximum.accumulate(tops[::-1])[::-1]  # the highest top from each point on
     low = int(np.argmax(rest <= rest[-1] + 1e-9))  # the first point past everything higher than the end's
     orient = world.eef_mat() if orient is None else orient
+    yield from reach.unbend(world, world.hold_grip, world.eef_mat())  # an elbow past straight comes in no more
     yield from _carry_leg(world, [*world.eef()[:2], z], orient, 0.015)
     z = min(z, world.eef()[2] + 0.015)  # stalled below it: carry on at the height reached
     end_z = min(z, float(rest[-1]) + above)
@@ -192,10 +193,11 @@ def carry(
 
 
 def _carry_leg(world: World, goal, orient: np.ndarray, tol: float) -> Actions:
-    """One move of the held object, ended early when the arm stalls (CARRY_STALL_STEPS)."""
+    """One move of the held object, ended early when the arm stalls (CARRY_STALL_STEPS), its goal
+    nearer the arm's base where the elbow would straighten there (`reach.within`)."""
     yield from motion.move_to(
         world,
-        goal,
+        reach.within(world, goal),
         world.hold_grip,
         orient,
         tol=tol,
