@@ -27,7 +27,8 @@ def _set_elbow(s, q: float) -> None:
 def test_the_arm_is_as_long_as_its_two_links_and_bent_its_own_way_at_the_start(scene):
     """The Panda's shoulder-to-wrist distance is at most 0.719 m (0.3266 + 0.3928 m), reached with the
     elbow straight at -0.467 rad; at LIBERO's start (-2.46) it is bent its own way, at -0.2 (0.27 rad
-    past straight, its limit -0.07) the wrong way, and the distance is shorter on either side."""
+    past straight, its limit -0.07) the wrong way, and the distance is shorter on either side: at the
+    limit, `wrong_way_shortest` (0.705 m)."""
     s = scene(NORMAL)
     assert len(s.world.arm_joints) == 7
     assert reach.full_length(s.world) == pytest.approx(0.7194, abs=5e-4)
@@ -37,8 +38,10 @@ def test_the_arm_is_as_long_as_its_two_links_and_bent_its_own_way_at_the_start(s
     straight = -0.2 - reach.past_straight(s.world)
     _set_elbow(s, straight)
     assert reach.stretch(s.world) == pytest.approx(reach.full_length(s.world), abs=1e-6)
-    _set_elbow(s, -0.07)
+    lo, hi = s.world.m.jnt_range[s.world.arm_joints[3]]
+    _set_elbow(s, hi)
     assert reach.stretch(s.world) < reach.full_length(s.world) - 0.01
+    assert reach.wrong_way_shortest(s.world) == pytest.approx(reach.stretch(s.world), abs=1e-6)
 
 
 def test_a_goal_beyond_reach_comes_within_it(scene):

@@ -173,8 +173,14 @@ def carry(
     rest = np.maximum.accumulate(tops[::-1])[::-1]  # the highest top from each point on
     low = int(np.argmax(rest <= rest[-1] + 1e-9))  # the first point past everything higher than the end's
     orient = world.eef_mat() if orient is None else orient
-    yield from reach.unbend(world, world.hold_grip, world.eef_mat())  # an elbow past straight comes in no more
-    yield from _carry_leg(world, [*world.eef()[:2], z], orient, 0.015)
+    # An elbow past straight brings the wrist no nearer the shoulder than `wrong_way_shortest`: unbent
+    # first where the carry ends nearer (into libero_10-03's drawer from 0.8 m out; not onto
+    # libero_spatial-04's far plate, where unbending out of the drawer cost 40 steps). Rising where it
+    # stands, far out, the wrist would pass the arm's reach: it rises toward the base.
+    end = [*(xy + world.eef()[:2] - world.body_pos(held)[:2]), z]
+    if reach.past_straight(world) > 0 and reach.stretch(world, end) < reach.wrong_way_shortest(world):
+        yield from reach.unbend(world, world.hold_grip, world.eef_mat())
+    yield from _carry_leg(world, reach.within(world, [*world.eef()[:2], z]), orient, 0.015)
     z = min(z, world.eef()[2] + 0.015)  # stalled below it: carry on at the height reached
     end_z = min(z, float(rest[-1]) + above)
     if end_z < z - CARRY_DESCENT_M:
@@ -193,11 +199,10 @@ def carry(
 
 
 def _carry_leg(world: World, goal, orient: np.ndarray, tol: float) -> Actions:
-    """One move of the held object, ended early when the arm stalls (CARRY_STALL_STEPS), its goal
-    nearer the arm's base where the elbow would straighten there (`reach.within`)."""
+    """One move of the held object, ended early when the arm stalls (CARRY_STALL_STEPS)."""
     yield from motion.move_to(
         world,
-        reach.within(world, goal),
+        goal,
         world.hold_grip,
         orient,
         tol=tol,

@@ -90,17 +90,35 @@ def _moved(world: World, goal: np.ndarray, direction: np.ndarray, most: float, m
     return goal + direction * brentq(excess, 0.0, most, xtol=1e-4)
 
 
+def _bend(world: World) -> float:
+    """The elbow joint's angle from straight (rad, in the joint's sense)."""
+    shoulder, elbow, wrist = _anchors(world)
+    upper, fore = elbow - shoulder, wrist - elbow
+    axis = world.d.xaxis[world.arm_joints[3]]
+    return float(np.arctan2(axis @ np.cross(upper, fore), upper @ fore))
+
+
 def past_straight(world: World) -> float:
     """How far (rad) the elbow is bent the wrong way: past straight toward the nearer end of its
     range (the bent side is the larger part of the range); 0 or less when bent its own way."""
     joints = world.arm_joints
-    shoulder, elbow, wrist = _anchors(world)
-    upper, fore = elbow - shoulder, wrist - elbow
-    axis = world.d.xaxis[joints[3]]
-    bend = float(np.arctan2(axis @ np.cross(upper, fore), upper @ fore))  # the joint's angle from straight
+    bend = _bend(world)
     straight = world.qpos(joints[3]) - bend
     lo, hi = (float(x) for x in world.m.jnt_range[joints[3]])
     return bend if straight - lo > hi - straight else -bend
+
+
+def wrong_way_shortest(world: World) -> float:
+    """The shoulder-to-wrist distance with the elbow bent the wrong way as far as its range goes
+    (the Panda's: 0.705 m at its limit, 0.4 rad past straight): no nearer can such an elbow bring
+    the wrist."""
+    joints = world.arm_joints
+    shoulder, elbow, wrist = _anchors(world)
+    a, b = float(np.linalg.norm(elbow - shoulder)), float(np.linalg.norm(wrist - elbow))
+    straight = world.qpos(joints[3]) - _bend(world)
+    lo, hi = (float(x) for x in world.m.jnt_range[joints[3]])
+    past = min(straight - lo, hi - straight)  # to the nearer end: the wrong side's
+    return float(np.sqrt(a * a + b * b + 2 * a * b * np.cos(past)))
 
 
 def unbend(world: World, grip: float, orient: np.ndarray | None = None) -> Actions:
