@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vpro_assets.rollout.policies.oracle import motion
+from vpro_assets.rollout.policies.oracle import motion, reach
 from vpro_assets.rollout.policies.oracle.clearance import lift_clear, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import (
     HOVER_M,
@@ -68,6 +68,7 @@ def pick(
         over = grasp.point + entry if inner is None else inner
         above = over + [0, 0, HOVER_M]
         above[2] = max(above[2], world.eef()[2] if attempt == 0 else above[2])
+        above = reach.lowered(world, above, over[2] + HOVER_M)  # far out, no higher than the arm reaches bent
         if inner is not None and grasp.squeeze_to is not None:  # (`_reached_from_inside`: a gentle pinch)
             world.hold_grip = 0.0
             yield from motion.move_to(world, above, OPEN, orient, tol=0.015, max_steps=150)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from vpro_assets.rollout.policies.oracle import lay, level, motion, nudge, room
+from vpro_assets.rollout.policies.oracle import lay, level, motion, nudge, reach, room
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, joint_for
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.drawer import handle_point, open_direction
@@ -192,7 +192,14 @@ def carry(
     rest = np.maximum.accumulate(tops[::-1])[::-1]  # the highest top from each point on
     low = int(np.argmax(rest <= rest[-1] + 1e-9))  # the first point past everything higher than the end's
     orient = world.eef_mat() if orient is None else orient
-    yield from _carry_leg(world, [*world.eef()[:2], z], orient, 0.015)
+    # An elbow past straight brings the wrist no nearer the shoulder than `wrong_way_shortest`: unbent
+    # first where the carry ends nearer (into libero_10-03's drawer from 0.8 m out; not onto
+    # libero_spatial-04's far plate, where unbending out of the drawer cost 40 steps). Rising where it
+    # stands, far out, the wrist would pass the arm's reach: it rises toward the base.
+    end = [*(xy + world.eef()[:2] - world.body_pos(held)[:2]), z]
+    if reach.past_straight(world) > 0 and reach.stretch(world, end) < reach.wrong_way_shortest(world):
+        yield from reach.unbend(world, world.hold_grip, world.eef_mat())
+    yield from _carry_leg(world, reach.within(world, [*world.eef()[:2], z]), orient, 0.015)
     z = min(z, world.eef()[2] + 0.015)  # stalled below it: carry on at the height reached
     end_z = min(z, float(rest[-1]) + above)
     if end_z < z - CARRY_DESCENT_M:

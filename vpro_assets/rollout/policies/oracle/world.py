@@ -133,6 +133,20 @@ class World:
             body = int(self.m.body_parentid[body])
         raise VProError(f"task {self.task.key}: no hinge between the grip site and the world")
 
+    @cached_property
+    def arm_joints(self) -> list[int]:
+        """The arm's hinges from its base to the hand (the Panda's joints 1 to 7): those walking up
+        from the grip site's body, robot0_'s."""
+        hinges, body = [], int(self.m.site_bodyid[self.grip_site])
+        while body > 0:
+            hinges += [
+                j
+                for j in range(self.m.njnt)
+                if self.m.jnt_bodyid[j] == body and self.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE
+            ]
+            body = int(self.m.body_parentid[body])
+        return [j for j in hinges[::-1] if self.joint_name(j).startswith(ROBOT_PREFIXES[0])]
+
     def wrist_room(self, turn: float) -> float:
         """How far the wrist joint stays from its nearer limit after the hand turns `turn` rad more
         about the wrist's axis (negative: past it)."""
