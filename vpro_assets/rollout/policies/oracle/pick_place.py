@@ -196,7 +196,7 @@ def carry(
     # first where the carry ends nearer (into libero_10-03's drawer from 0.8 m out; not onto
     # libero_spatial-04's far plate, where unbending out of the drawer cost 40 steps). Rising where it
     # stands, far out, the wrist would pass the arm's reach: it rises toward the base.
-    end = [*(xy + world.eef()[:2] - world.body_pos(held)[:2]), z]
+    end = np.array([*(xy + world.eef()[:2] - world.body_pos(held)[:2]), z])
     if reach.past_straight(world) > 0 and reach.stretch(world, end) < reach.wrong_way_shortest(world):
         yield from reach.unbend(world, world.hold_grip, world.eef_mat())
     yield from _carry_leg(world, reach.within(world, [*world.eef()[:2], z]), orient, 0.015)
