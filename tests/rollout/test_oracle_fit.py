@@ -27,7 +27,7 @@ def test_book_turned_into_the_caddy_back_compartment(scene):
     `In` holds while the book goes down, without letting it tip over the walls."""
     s = scene("libero_10-05/normal")
     w = s.world
-    half = fit.box_half(w, BACK)
+    half = w.region_half(BACK)[:2]
     assert fit.overflow(w.points(BOOK), half) > 0.03
     for n, action in enumerate(pick_place(w, BOOK, "in", BACK), 1):
         s.cenv.step(action)
@@ -46,7 +46,7 @@ def test_book_too_wide_for_the_box_leaned_in_over_one_wall(scene):
     (libero_10-05 taper-s3's book: 14.5 cm wide at its foot against the 12.4 cm box)."""
     s = scene("libero_10-05/normal")
     w = s.world
-    half = np.array([fit.box_half(w, BACK)[0], 0.05])
+    half = np.array([w.region_half(BACK)[:2][0], 0.05])
     center = w.site_pos(BACK)[:2]
     spin = [np.array([[np.cos(t), -np.sin(t), 0.0], [np.sin(t), np.cos(t), 0.0], [0.0, 0.0, 1.0]]) for t in fit.TURNS]
     orient, xy = fit.lean(w, BOOK, half, center, w.eef_mat(), spin)

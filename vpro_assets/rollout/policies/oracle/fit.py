@@ -16,6 +16,7 @@ no turn fits, too wide on one axis only, is leaned in over one wall (`lean`).
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from vpro_assets.rollout.policies.oracle.grasp import grasp_orientation
 from vpro_assets.rollout.policies.oracle.lay import turned
@@ -25,11 +26,6 @@ TURNS = np.radians(np.arange(-90.0, 90.1, 2.5))  # candidate turns about the ver
 FIT_MARGIN_M = 0.005  # the body position this far inside LIBERO's box
 FIT_SLACK_M = 0.003  # a footprint fits when it is at least this much narrower than the box each way
 LEAN_INSIDE_M = 0.01  # a leaned footprint's inner end this far inside the box
-
-
-def box_half(world: World, region: str) -> np.ndarray:
-    """Half sizes (x, y) of LIBERO's axis-aligned box of a region (`SiteObject.in_box`)."""
-    return np.abs(world.site_mat(region) @ world.site_size(region))[:2]
 
 
 def overflow(pts: np.ndarray, half: np.ndarray) -> float:
@@ -42,11 +38,11 @@ def fit_turn(world: World, held: str, region: str) -> tuple[np.ndarray, np.ndarr
     """(hand orientation, where the carry brings the body position (xy)) that fit the held object's
     footprint into `region`'s box, or that lean it in (`lean`) when no turn makes it fit; None when
     it fits as held, or overflows the box both ways however turned."""
-    half = box_half(world, region)
+    half = world.region_half(region)[:2]
     if overflow(world.points(held), half) <= -FIT_SLACK_M:
         return None
     now = world.eef_mat()
-    spin = [np.array([[np.cos(t), -np.sin(t), 0.0], [np.sin(t), np.cos(t), 0.0], [0.0, 0.0, 1.0]]) for t in TURNS]
+    spin = list(Rotation.from_euler("z", TURNS[:, None]).as_matrix())
     fits = [
         (abs(t), r)
         for t, r in zip(TURNS, spin, strict=True)

@@ -86,7 +86,7 @@ def resolve(world: World, relation: str, arg: str, held: str, coming: tuple[str,
     else:  # beside what is there already: a second can set on the first (a wider deformed one) stays on it
         xy = _shared_spot(world, arg, held, owner, xy, coming)
     surface = support_height(world, xy, exclude=(held,))
-    top = world.site_pos(arg)[2] + abs(world.site_mat(arg) @ world.site_size(arg))[2]
+    top = world.site_pos(arg)[2] + world.region_half(arg)[2]
     limit = top + lay.LIBERO_ON_HEIGHT_M if relation == "on" else np.inf
     return Destination(xy, surface, owner, relation, limit)
 
@@ -100,7 +100,7 @@ def _shared_spot(
         return xy
     objects = [o for o, _ in world.task.objects]
     surface = support_height(world, center, exclude=tuple(objects))
-    half = np.abs(world.site_mat(region) @ world.site_size(region))[:2]
+    half = world.region_half(region)[:2]
     others = [o for o in objects if o != held and np.all(np.abs(world.box(o).center[:2] - center) < half + 0.1)]
     spot = room.spot(world, region, held, owner, surface, others, bool(coming))
     return xy if spot is None else spot
@@ -112,7 +112,7 @@ def free_spot(world: World, region: str, skip: tuple[str, str], center: np.ndarr
     object and the region's owner."""
     radius = float(np.max(world.box(skip[0]).size[:2])) / 2
     others = [world.box(o) for o, _ in world.task.objects if o not in skip]
-    half = np.abs(world.site_mat(region) @ world.site_size(region))[:2]
+    half = world.region_half(region)[:2]
 
     def clearance(p: np.ndarray) -> float:
         gaps = [

@@ -38,17 +38,13 @@ def plate(world: World, owner: str, region: str, surface_z: float) -> tuple[np.n
         boxes = object_boxes(world, owner)
     except (KeyError, ValueError, VProError):  # a region of the table: its owner has no body of its own
         return None
-    center, half = world.site_pos(region)[:2], _half(world, region) + REACH_M
+    center, half = world.site_pos(region)[:2], world.region_half(region)[:2] + REACH_M
     level = np.abs(boxes[:, 1, 2] - surface_z) < LEVEL_M
     inside = np.all(boxes[:, 0, :2] < center + half, axis=1) & np.all(boxes[:, 1, :2] > center - half, axis=1)
     top = boxes[level & inside]
     if not len(top):
         return None
     return top[:, 0, :2].min(axis=0), top[:, 1, :2].max(axis=0)
-
-
-def _half(world: World, region: str) -> np.ndarray:
-    return np.abs(world.site_mat(region) @ world.site_size(region))[:2]
 
 
 def spot(
@@ -62,7 +58,7 @@ def spot(
     lo_s, hi_s = shelf[0] + EDGE_M, shelf[1] - EDGE_M
     box, body = world.box(held), world.body_pos(held)[:2]
     off_lo, off_hi = box.lo[:2] - body, box.hi[:2] - body
-    center, half = world.site_pos(region)[:2], _half(world, region) * INSIDE
+    center, half = world.site_pos(region)[:2], world.region_half(region)[:2] * INSIDE
     axes = [np.arange(-h, h + 1e-9, GRID_M) for h in half]
     cand = center + np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
     f_lo, f_hi = cand + off_lo, cand + off_hi

@@ -220,6 +220,11 @@ class World:
     def site_size(self, name: str) -> np.ndarray:
         return self.m.site_size[self._id(mujoco.mjtObj.mjOBJ_SITE, name)].copy()
 
+    def region_half(self, name: str) -> np.ndarray:
+        """Half sizes (x, y, z) of LIBERO's box of a region, axis-aligned in the world as its
+        `SiteObject.in_box` and `under` take it: `|mat @ size|`."""
+        return np.abs(self.site_mat(name) @ self.site_size(name))
+
     def joint(self, name: str) -> int:
         return self._id(mujoco.mjtObj.mjOBJ_JOINT, name)
 
