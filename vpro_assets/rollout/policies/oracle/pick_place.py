@@ -287,7 +287,7 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str, coming: tu
     rise, lying = lay.rise(world, held), lay.lying(world, held)
     grasp = plan_grasp(world, held)
     pushed = yield from nudge.clear_for_pick(world, held, grasp)
-    taken = world.body_mat(held)
+    taken, tilt = world.body_mat(held), level.max_tilt(world.box(held).size)
     yield from pick(world, held, planned=None if pushed else grasp)
     dest = resolve(world, relation, dest_arg, held, coming)
     # Onto a slope, also what hangs too tall once lifted: libero_goal-09's lying bottle, pinched off
@@ -308,7 +308,7 @@ def pick_place(world: World, held: str, relation: str, dest_arg: str, coming: tu
         orient, xy = fit
         dest = replace(dest, xy=xy)
     yield from carry(world, held, dest.xy, orient=orient)
-    yield from level.upright(world, held, taken)
+    yield from level.upright(world, held, taken, tilt)
     # What lies on its side is set down before it is let go: libero_10-06's lying mug, pinched 6 cm
     # off its middle and let go 1.2 cm over the plate's rim, rolled off the plate (6 of 10 trials).
     yield from lower_and_release(world, held, dest, above=-np.inf if lying else RELEASE_ABOVE_M)
