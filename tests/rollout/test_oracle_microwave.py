@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import oracle_episode
 
-from vpro_assets.rollout.policies.oracle import cavity, door, drawer, motion, swing
+from vpro_assets.rollout.policies.oracle import cavity, door, drawer, lay, motion, stand, swing
 
 
 def test_door_closes_the_microwave(scene):
@@ -218,3 +218,24 @@ def test_part_open_microwave_case_solved_within_libero_10_limit(trial):
     case_id = "libero_10-09/task_precondition_variation/receptacle_openness-v1-open25"
     row = oracle_episode(case_id, trial, build=True)
     assert row["success"] and row["steps"] < 520, row
+
+
+def test_mug_lying_on_its_side_is_stood_up_then_goes_into_the_microwave(scene):
+    """libero_10-09's mug lying on its side on its handle, its mouth toward -y (as its object-pose
+    case's -lying trials start it; set here so a clean clone needs no built scene case): nothing of it
+    is narrow enough to pinch from above, and held lying it does not fit under the microwave's top.
+    The plan stands it up first: the hand, level, pinches the rim's wall, turns it upright and sets
+    it down standing; then it goes in by its handle."""
+    s = scene("libero_10-09/normal")
+    mug, region = "white_yellow_mug_1", "microwave_1_heating_region"
+    _set_pose(s, mug, [-0.02, -0.019, 0.968], [-0.501, -0.499, -0.499, 0.501])
+    assert stand.on_side(s.world, mug)
+    assert s.plan()[:2] == [
+        "stand(upright white_yellow_mug_1)",
+        "cavity(in white_yellow_mug_1 microwave_1_heating_region)",
+    ]
+    steps = s.run(stand.stand_up(s.world, mug), limit=260)
+    up = lay.up_axis(s.world, mug)
+    assert up is not None and up[2] > 0.95, (steps, up)
+    s.run(cavity.put_in(s.world, mug, region), limit=400)
+    assert s.holds(("in", mug, region))

@@ -54,14 +54,20 @@ def rise(world: World, held: str) -> float:
     return float(world.body_pos(held)[2] - world.points(held)[:, 2].min())
 
 
+def up_axis(world: World, instance: str) -> np.ndarray | None:
+    """The world direction of `instance`'s up axis as LIBERO stands it (`UP_AXES`, in its body's
+    frame); None for an object of no measured up axis."""
+    up = UP_AXES.get(dict(world.task.objects).get(instance, ""))
+    if up is None:
+        return None
+    return world.body_mat(instance)[:, "xyz".index(up[1])] * (1.0 if up[0] == "+" else -1.0)
+
+
 def lying(world: World, instance: str) -> bool:
     """Whether `instance` lies on its side: its up axis as LIBERO stands it (`UP_AXES`, in its
     body's frame) more than 45 degrees from the vertical. An object of no measured up axis: no."""
-    up = UP_AXES.get(dict(world.task.objects).get(instance, ""))
-    if up is None:
-        return False
-    axis = world.body_mat(instance)[:, "xyz".index(up[1])] * (1.0 if up[0] == "+" else -1.0)
-    return bool(axis[2] < LYING_COS)
+    axis = up_axis(world, instance)
+    return axis is not None and bool(axis[2] < LYING_COS)
 
 
 def sloped(world: World, region: str) -> bool:

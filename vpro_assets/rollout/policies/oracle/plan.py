@@ -15,7 +15,8 @@ Before 2, a drawer out over an object still to be moved (`sweep`: the box its ge
 between closed and open covers the object's footprint) is closed if the goal does not need it open
 (neither asked open nor filled): the open drawer stops the hand coming down on the object.
 A flat object too wide to pinch that must go onto a table region is pushed there; an object that
-must go into a covered cavity (the microwave) goes in sideways through its opening.
+must go into a covered cavity (the microwave) goes in sideways through its opening, stood upright
+first when it lies on its side (`stand`).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from functools import partial
 import numpy as np
 
 from vpro_assets.libero.task_record import TABLE_CATEGORIES
-from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, sweep, swing
+from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, stand, sweep, swing
 from vpro_assets.rollout.policies.oracle.articulation import fully_open, is_drawer, joint_for, needs_opening, owner_of
 from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
@@ -86,6 +87,10 @@ def _push(world: World, obj: str, region: str) -> Actions:
 
 def _put_in(world: World, held: str, region: str) -> Actions:
     return cavity.put_in(world, held, region)
+
+
+def _stand_up(world: World, held: str) -> Actions:
+    return stand.stand_up(world, held)
 
 
 def _pick_place(world: World, held: str, relation: str, dest: str, coming: tuple[str, ...] = ()) -> Actions:
@@ -176,6 +181,8 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
             if _pushable(world, obj, dest):
                 steps.append(Step("push", pred, partial(_push, obj=obj, region=dest)))
             elif pred[0] == "in" and cavity.covered(world, dest) is not None:
+                if stand.on_side(world, obj):  # held lying, it stands too tall for the cavity (`stand`)
+                    steps.append(Step("stand", ("upright", obj), partial(_stand_up, held=obj)))
                 steps.append(Step("cavity", pred, partial(_put_in, held=obj, region=dest)))
             else:
                 # The objects that go onto the same region after this one (`room`).
