@@ -74,17 +74,17 @@ def test_pot_hanging_twelve_degrees_off_upright_is_set_down_upright(scene):
     over the stove: under the old 15 degrees it was let go so, 1.8 cm over the burner, landed on its
     edge and toppled off the stove (4 of 10 trials). Its box tips over at 21 degrees, so `max_tilt`
     lets it hang 10.7 at most: it is turned back, set down and stands upright on the stove. A bowl
-    (libero_spatial-00's, flat and wide) is let go as it hangs, up to MAX_TILT_RAD."""
+    (flat and wide: its box tips over at 58 degrees) may hang 29."""
     s = scene(MULTIPEAK_S2, 4)
     w = s.world
     taken, limit = w.body_mat("moka_pot_1"), level.max_tilt(w.box("moka_pot_1").size)
     assert np.radians(10.0) < limit < np.radians(11.5), np.degrees(limit)
-    assert level.max_tilt(np.array([0.16, 0.16, 0.05])) == level.MAX_TILT_RAD
+    assert level.max_tilt(np.array([0.16, 0.16, 0.05])) > np.radians(28.0)
     s.run(pick(w, "moka_pot_1"), limit=150)
     dest = resolve(w, "on", REGION, "moka_pot_1", coming=("moka_pot_2",))
     s.run(carry(w, "moka_pot_1", dest.xy), limit=300)
     tilt = level.correction(w, "moka_pot_1", taken).magnitude()
-    assert limit < tilt < level.MAX_TILT_RAD, np.degrees(tilt)
+    assert limit < tilt < np.radians(15.0), np.degrees(tilt)  # let go so before max_tilt
     s.run(level.upright(w, "moka_pot_1", taken, limit), limit=level.TURN_STEPS + 1)
     assert level.correction(w, "moka_pot_1", taken).magnitude() < np.radians(5.0)
     s.run(lower_and_release(w, "moka_pot_1", dest), limit=300)
