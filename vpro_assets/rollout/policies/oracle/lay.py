@@ -41,8 +41,7 @@ LAY_TILT_RAD = np.radians(20.0)
 # A region whose LIBERO box rises less steeply than this (the cosine of its "up" axis with the
 # vertical) is a slope: libero_goal-09's wine rack shelf, its box's up axis 62 degrees from vertical.
 LEVEL_COS = 0.9
-TURN_SPEED = 0.5  # of the action's full turn: turning at full speed draws the grip site off its place
-TURN_TOL_RAD, TURN_STEPS = 0.05, 60
+TURN_STEPS = 60
 AIM_TOL_M, AIM_STEPS = 0.01, 40
 CLEAR_TIP_M = 0.02  # the tipped object's lowest point this far over the surface before it tips
 # An object whose up axis (as LIBERO stands it) is farther than this from vertical lies on its side.
@@ -141,14 +140,8 @@ def clear_tip(world: World, held: str, tipped: np.ndarray, surface_z: float) -> 
 
 
 def tip(world: World, tipped: np.ndarray) -> Actions:
-    """Turn the hand to `tipped` where it is, at TURN_SPEED."""
-    hold = world.eef()
-    for _ in range(TURN_STEPS):
-        if np.linalg.norm(motion.rotation_error(world.eef_mat(), tipped)) < TURN_TOL_RAD:
-            return
-        action = motion.action_to(world, hold, world.hold_grip, tipped)
-        action[3:6] *= TURN_SPEED
-        yield action
+    """Turn the hand to `tipped` where it is."""
+    yield from motion.turn_in_place(world, tipped, TURN_STEPS)
 
 
 def centre_over(world: World, held: str, xy: np.ndarray) -> Actions:

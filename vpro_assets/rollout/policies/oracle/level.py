@@ -27,8 +27,7 @@ from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.world import World
 
 TOPPLE_SHARE = 0.5  # of the tilt at which the object's box tips over on its narrower side
-TURN_SPEED = 0.5  # of the action's full turn, as `lay.tip`: faster draws the grip site off its place
-TURN_TOL_RAD, TURN_STEPS = 0.05, 40
+TURN_STEPS = 40
 
 
 def correction(world: World, held: str, taken: np.ndarray) -> Rotation:
@@ -52,11 +51,4 @@ def upright(world: World, held: str, taken: np.ndarray, limit: float) -> Actions
     turn = correction(world, held, taken)
     if turn.magnitude() < limit:
         return
-    goal = turn.as_matrix() @ world.eef_mat()
-    hold = world.eef()
-    for _ in range(TURN_STEPS):
-        if np.linalg.norm(motion.rotation_error(world.eef_mat(), goal)) < TURN_TOL_RAD:
-            return
-        action = motion.action_to(world, hold, world.hold_grip, goal)
-        action[3:6] *= TURN_SPEED
-        yield action
+    yield from motion.turn_in_place(world, turn.as_matrix() @ world.eef_mat(), TURN_STEPS)

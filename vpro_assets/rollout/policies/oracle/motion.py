@@ -28,6 +28,7 @@ OPEN, CLOSE = -1.0, 1.0
 GRIPPER_STEPS = 12  # control steps for the fingers to close or open
 TOL_M = 0.008
 TURN_TOL = 0.05  # rad
+TURN_IN_PLACE_SPEED = 0.5  # of the action's full turn (`turn_in_place`)
 STALL_M = 0.003  # a move has stalled when the grip site moved less than this in its stall steps
 DOWN = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # grip site pointing down, fingers along world y
 
@@ -114,6 +115,19 @@ def gripper(world: World, grip: float, steps: int = GRIPPER_STEPS, orient: np.nd
     hold = world.eef()
     for _ in range(steps):
         yield action_to(world, hold, grip, orient)
+
+
+def turn_in_place(world: World, goal: np.ndarray, steps: int, tol: float = TURN_TOL) -> Actions:
+    """Turn the hand to `goal` where it is, holding what it holds, at TURN_IN_PLACE_SPEED of the
+    action's full turn (at most `steps` actions): a held object turned faster draws the grip site
+    off its place."""
+    hold = world.eef()
+    for _ in range(steps):
+        if np.linalg.norm(rotation_error(world.eef_mat(), goal)) < tol:
+            return
+        action = action_to(world, hold, world.hold_grip, goal)
+        action[3:6] *= TURN_IN_PLACE_SPEED
+        yield action
 
 
 def hold_still(world: World, grip: float, steps: int) -> Actions:
