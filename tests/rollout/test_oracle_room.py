@@ -6,6 +6,8 @@ region's 15 x 15 cm box. A pot pinched by its handle turns in the fingers about 
 """
 
 import numpy as np
+import pytest
+from conftest import build_scene_case
 from scipy.spatial.transform import Rotation
 
 from vpro_assets.rollout.policies.oracle import level, motion, room
@@ -69,12 +71,14 @@ def test_a_region_of_the_table_has_no_plate(scene):
     assert room.spot(w, region, "chocolate_pudding_1", "living_room_table", w.table_z, [], True) is None
 
 
+@pytest.mark.slow
 def test_pot_hanging_twelve_degrees_off_upright_is_set_down_upright(scene):
     """multipeak-s2's first pot (trial 4), pinched by its handle, hangs 12-13 degrees off upright
     over the stove: under the old 15 degrees it was let go so, 1.8 cm over the burner, landed on its
     edge and toppled off the stove (4 of 10 trials). Its box tips over at 21 degrees, so `max_tilt`
     lets it hang 10.7 at most: it is turned back, set down and stands upright on the stove. A bowl
     (flat and wide: its box tips over at 58 degrees) may hang 29."""
+    build_scene_case(MULTIPEAK_S2)  # a deformed pot (coacd): a no-op when the case is current
     s = scene(MULTIPEAK_S2, 4)
     w = s.world
     taken, limit = w.body_mat("moka_pot_1"), level.max_tilt(w.box("moka_pot_1").size)
