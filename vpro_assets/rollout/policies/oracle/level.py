@@ -33,8 +33,12 @@ TURN_STEPS = 40
 def correction(world: World, held: str, taken: np.ndarray) -> Rotation:
     """The smallest world rotation that brings the object's up axis, as it stood when taken (its
     orientation `taken`), back to vertical."""
-    up_now = world.body_mat(held) @ (taken.T @ [0.0, 0.0, 1.0])
-    turn, _ = Rotation.align_vectors([[0.0, 0.0, 1.0]], [up_now])
+    return to_vertical(world.body_mat(held) @ (taken.T @ [0.0, 0.0, 1.0]))
+
+
+def to_vertical(up: np.ndarray) -> Rotation:
+    """The smallest world rotation that turns the direction `up` to the vertical."""
+    turn, _ = Rotation.align_vectors([[0.0, 0.0, 1.0]], [up])
     return turn
 
 

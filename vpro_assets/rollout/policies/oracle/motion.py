@@ -117,15 +117,17 @@ def gripper(world: World, grip: float, steps: int = GRIPPER_STEPS, orient: np.nd
         yield action_to(world, hold, grip, orient)
 
 
-def turn_in_place(world: World, goal: np.ndarray, steps: int, tol: float = TURN_TOL) -> Actions:
-    """Turn the hand to `goal` where it is, holding what it holds, at TURN_IN_PLACE_SPEED of the
-    action's full turn (at most `steps` actions): a held object turned faster draws the grip site
-    off its place."""
-    hold = world.eef()
+def turn_in_place(
+    world: World, goal: np.ndarray, steps: int, at: np.ndarray | None = None, speed: float = 1.0, tol: float = TURN_TOL
+) -> Actions:
+    """Turn the hand to `goal` holding what it holds, at TURN_IN_PLACE_SPEED of the action's full
+    turn (at most `steps` actions): a held object turned faster draws the grip site off its place.
+    The grip site stays where it is, or moves toward `at` at `speed` of the action's full move."""
+    hold = world.eef() if at is None else at
     for _ in range(steps):
         if np.linalg.norm(rotation_error(world.eef_mat(), goal)) < tol:
             return
-        action = action_to(world, hold, world.hold_grip, goal)
+        action = action_to(world, hold, world.hold_grip, goal, speed=speed)
         action[3:6] *= TURN_IN_PLACE_SPEED
         yield action
 

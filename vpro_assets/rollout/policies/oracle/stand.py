@@ -21,9 +21,8 @@ elbow straightened: it turns 5 cm over the cup.) object_pose-v1-lying 0/10 -> 5/
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from vpro_assets.rollout.policies.oracle import lay, motion, reach
+from vpro_assets.rollout.policies.oracle import lay, level, motion, reach
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import ROBOT_BASE_XY
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
@@ -38,7 +37,7 @@ OUT_M = 0.08  # the hand comes in along the cup's axis from this far out of its 
 ABOVE_M = 0.05  # first over that point this far above the cup's top (turning there, not lower)
 LIFT_CLEAR_M = 0.015  # the cup, turned about the grip, clears the table by this much
 TURN_IN_M = 0.08
-TURN_SPEED, TURN_TOL_RAD, TURN_STEPS = 0.5, 0.05, 70
+TURN_MOVE_SPEED, TURN_STEPS = 0.5, 70  # toward the base while it turns
 
 
 def on_side(world: World, instance: str) -> bool:
@@ -97,7 +96,7 @@ def stand_up(world: World, held: str) -> Actions:
     world.hold_grip = CLOSE
     now = lay.up_axis(world, held)
     assert now is not None  # (rim_pinch found it)
-    turn, _ = Rotation.align_vectors([[0.0, 0.0, 1.0]], [now])
+    turn = level.to_vertical(now)
     # Up until the cup, turned about the grip site, clears the table.
     axis = turn.as_rotvec() / max(turn.magnitude(), 1e-9)
     rel = world.points(held) - world.eef()
@@ -107,12 +106,7 @@ def stand_up(world: World, held: str) -> Actions:
     goal = turn.as_matrix() @ world.eef_mat()
     home = np.append(ROBOT_BASE_XY - world.eef()[:2], 0.0)
     hold = world.eef() + home / np.linalg.norm(home) * TURN_IN_M
-    for _ in range(TURN_STEPS):
-        if np.linalg.norm(motion.rotation_error(world.eef_mat(), goal)) < TURN_TOL_RAD:
-            break
-        action = motion.action_to(world, hold, CLOSE, goal, speed=TURN_SPEED)
-        action[3:6] *= TURN_SPEED
-        yield action
+    yield from motion.turn_in_place(world, goal, TURN_STEPS, at=hold, speed=TURN_MOVE_SPEED)
     xy = world.body_pos(held)[:2]
     # Set down before it is let go (let go 1.2 cm over the table, it can land on its edge and tip).
     dest = Destination(xy, support_height(world, xy, exclude=(held,)), "table", "on")

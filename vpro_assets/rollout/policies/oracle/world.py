@@ -123,15 +123,10 @@ class World:
 
     @cached_property
     def wrist_joint(self) -> int:
-        """The arm's last hinge (the Panda's joint 7, turning the hand about its axis): the first
-        hinge found walking up from the grip site's body."""
-        body = int(self.m.site_bodyid[self.grip_site])
-        while body > 0:
-            for j in range(self.m.njnt):
-                if self.m.jnt_bodyid[j] == body and self.m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
-                    return j
-            body = int(self.m.body_parentid[body])
-        raise VProError(f"task {self.task.key}: no hinge between the grip site and the world")
+        """The arm's last hinge (the Panda's joint 7, turning the hand about its axis)."""
+        if not self.arm_joints:
+            raise VProError(f"task {self.task.key}: no hinge between the grip site and the world")
+        return self.arm_joints[-1]
 
     @cached_property
     def arm_joints(self) -> list[int]:
