@@ -16,7 +16,9 @@ between closed and open covers the object's footprint) is closed if the goal doe
 (neither asked open nor filled): the open drawer stops the hand coming down on the object.
 A flat object too wide to pinch that must go onto a table region is pushed there; an object that
 must go into a covered cavity (the microwave) goes in sideways through its opening, stood upright
-first when it lies on its side (`stand`).
+first when it lies on its side (`stand`). An upside-down object that must go into a region whose box
+its body position, so standing, stays above (libero_10-05's book into the caddy) is turned over
+first (`turn_over`).
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from functools import partial
 import numpy as np
 
 from vpro_assets.libero.task_record import TABLE_CATEGORIES
-from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, stand, sweep, swing
+from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, stand, sweep, swing, turn_over
 from vpro_assets.rollout.policies.oracle.articulation import fully_open, is_drawer, joint_for, needs_opening, owner_of
 from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
@@ -91,6 +93,10 @@ def _put_in(world: World, held: str, region: str) -> Actions:
 
 def _stand_up(world: World, held: str) -> Actions:
     return stand.stand_up(world, held)
+
+
+def _turn_over(world: World, held: str) -> Actions:
+    return turn_over.turn_over(world, held)
 
 
 def _pick_place(world: World, held: str, relation: str, dest: str, coming: tuple[str, ...] = ()) -> Actions:
@@ -185,6 +191,8 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
                     steps.append(Step("stand", ("upright", obj), partial(_stand_up, held=obj)))
                 steps.append(Step("cavity", pred, partial(_put_in, held=obj, region=dest)))
             else:
+                if pred[0] == "in" and turn_over.needs_turning_over(world, obj, dest):  # upside down, too tall
+                    steps.append(Step("turn_over", ("upright", obj), partial(_turn_over, held=obj)))
                 # The objects that go onto the same region after this one (`room`).
                 coming = tuple(p[1] for p in todo[todo.index(pred) + 1 :] if p[0] == pred[0] and p[2] == dest)
                 run = partial(_pick_place, held=obj, relation=pred[0], dest=dest, coming=coming)
