@@ -280,12 +280,33 @@ def test_lying_mug_at_the_arms_reach_stood_up_without_stalling(scene):
     assert steps < 190, steps
 
 
+def test_stood_mug_set_down_clear_of_the_porcelain_mug(scene):
+    """The lying mug as libero_10-09's object_pose-v1-lying trial 9 starts it (set in Normal's trial
+    9, the same porcelain mug): stood up where it turned, it came down 1 cm from the porcelain mug,
+    and the pick by its handle closed one finger on the porcelain mug and carried both into the
+    microwave. It is set down 4 cm clear of it, and goes in alone."""
+    s = scene("libero_10-09/normal", 9)
+    mug, other, region = "white_yellow_mug_1", "porcelain_mug_1", "microwave_1_heating_region"
+    _set_pose(s, mug, [-0.016, -0.017, 0.968], [-0.501, -0.499, -0.499, 0.501])
+    s.run(stand.stand_up(s.world, mug), limit=260)
+    up = lay.up_axis(s.world, mug)
+    assert up is not None and up[2] > 0.95, up
+    a, b = s.world.points(mug)[:, :2], s.world.points(other)[:, :2]
+    gap = float(np.linalg.norm(a[:, None] - b[None], axis=2).min())
+    assert gap > stand.NEIGHBOUR_GAP_M - 0.008, gap
+    before = s.world.body_pos(other)
+    s.run(cavity.put_in(s.world, mug, region), limit=400)
+    assert s.holds(("in", mug, region))
+    assert np.linalg.norm(s.world.body_pos(other) - before) < 0.01  # the porcelain mug stayed
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("trial", [1, 4])
+@pytest.mark.parametrize("trial", [0, 1, 4, 9])
 def test_lying_mug_case_solved_within_libero_10_limit(trial):
     """libero_10-09's object_pose-v1-lying: stand the mug, put it in, close the door, within the
     suite's 520 steps (trial 1: the close's descent slid on the door for 77 steps; 4: the stand took
-    256 steps, stalled at the arm's reach). The scene is built first (a no-op when it is current)."""
+    256 steps, stalled at the arm's reach; 0 and 9: the mug stood 1 cm from the porcelain mug). The
+    scene is built first (a no-op when it is current)."""
     case_id = "libero_10-09/task_precondition_variation/object_pose-v1-lying"
     row = oracle_episode(case_id, trial, build=True)
     assert row["success"] and row["steps"] < 520, row
