@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from vpro_assets.core import paths
 from vpro_assets.core.errors import VProError
 from vpro_assets.core.hashing import sha256_file
 from vpro_assets.libero import bridge as libero_bridge
@@ -62,8 +63,10 @@ def scene_artifacts(case: Mapping) -> dict:
     try:
         found = dict(built_case(case["id"]))
     except (VProError, FileNotFoundError, KeyError, StopIteration, ValueError) as exc:
+        # built_case's own error already names the case and the command: say where it looked instead
+        detail = f"looked in {paths.scene_case_dir(case['id'])}" if isinstance(exc, VProError) else str(exc)
         raise CaseUnavailableError(
-            f"case {case['id']}: scene not built; run vpro build --select {case['id']} ({exc})"
+            f"case {case['id']}: scene not built; run vpro build --select {case['id']} ({detail})"
         ) from None
     if not (Path(found["bddl"]).is_file() and Path(found["init_states"]).is_file()):
         raise CaseUnavailableError(
