@@ -17,7 +17,10 @@ substep's Python. `Arms` keeps the indices, ranges and MuJoCo output buffers of 
   this toolkit's environment), those two in one numba call instead (`Arms.osc_substep`, half the
   time of the NumPy path): the same operations again, numpy's own `cblas_dgemv` for its `np.dot`;
 - `SingleArm.control`'s clipping, gripper action (PandaGripper's `format_action`, its step kept
-  for the control step) and actuator writes, from the kept ranges.
+  for the control step) and actuator writes, from the kept ranges;
+- where nothing observes the substeps (`physics._substeps` with `observe=False`) and the kernel
+  is at hand, for one OSC arm with a Panda gripper: all of a control step's remaining substeps,
+  MuJoCo's split step included, in one compiled call (`Arms.fused_substeps`, `fused_substeps`).
 
 Every operation that rounds is robosuite's own, on the same operands in the same memory order (the
 numba kernels compile one version per layout, and BLAS rounds by layout too); what changed is
@@ -41,7 +44,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from vpro_assets.libero import osc_kernel
+from vpro_assets.libero import fused_substeps, osc_kernel
 
 # np.clip's own ufunc: np.clip reaches it through three Python calls (ndarray.clip, _methods._clip)
 _CLIP = np.core.umath.clip  # type: ignore[attr-defined]  # numpy < 2 (pyproject.toml)
@@ -105,6 +108,9 @@ class Arms:
         self.grip_steps: dict[int, np.ndarray] = {}  # per arm: the gripper's step in this control step
         self.kernel = osc_kernel.kernel_if_worth_it()  # None: the NumPy path below
         self.addresses = (self.model._address, self.data._address) if self.kernel is not None else (0, 0)
+        # the substeps between policy steps in one call (`fused_substeps`): one OSC arm, a Panda gripper
+        one_panda = len(arms) == 1 and arms[0].osc and arms[0].panda_gripper and len(arms[0].gripper_actuators) > 0
+        self.fused = fused_substeps.kernel() if self.kernel is not None and one_panda else None
         # robosuite's numba kernels as its OSC module binds them (`from control_utils import *`)
         osc = importlib.import_module("robosuite.controllers.osc")
         self.orientation_error = osc.orientation_error
@@ -267,12 +273,42 @@ class Arms:
 
     def grip(self, n: int, gripper, action: np.ndarray) -> np.ndarray:
         """robosuite's `PandaGripper.format_action` for arm `n`: `clip(current + [-1, 1] * speed *
-        sign(action), -1, 1)`. Its step (`[-1, 1] * speed * sign(action)`, the same product in the same
-        order) depends on the action only, so it is computed at the control step's first substep here
-        and kept; the clip is np.clip's own ufunc."""
+        sign(action), -1, 1)`, its step from `grip_step`; the clip is np.clip's own ufunc."""
+        gripper.current_action = _CLIP(gripper.current_action + self.grip_step(n, gripper, action), -1.0, 1.0)
+        return gripper.current_action
+
+    def grip_step(self, n: int, gripper, action: np.ndarray) -> np.ndarray:
+        """PandaGripper's step (`[-1, 1] * speed * sign(action)`, the same product in the same order):
+        it depends on the action only, so it is computed at the control step's first substep here and
+        kept."""
         step = self.grip_steps.get(n)
         if step is None:
             assert len(action) == gripper.dof
             step = self.grip_steps[n] = np.array([-1.0, 1.0]) * gripper.speed * np.sign(action)
-        gripper.current_action = _CLIP(gripper.current_action + step, -1.0, 1.0)
-        return gripper.current_action
+        return step
+
+    def fused_substeps(self, action: np.ndarray, count: int) -> bool:
+        """`count` whole substeps (mj_step1, `control`, mj_step2) in one call of `fused_substeps`'s
+        kernel, where it applies (one OSC arm with a Panda gripper, the kernel at hand, the gripper's
+        action of its step's shape); the attributes `control` sets, set from the last of them.
+        Returns whether it ran (False: nothing was done)."""
+        if self.fused is None or count < 1:
+            return False
+        arm = self.arms[0]
+        ctrl, robot = arm.controller, arm.robot
+        gripper = robot.gripper
+        step = self.grip_step(0, gripper, action[arm.gripper_slice])
+        current = gripper.current_action
+        if current.shape != step.shape or current.dtype != np.float64:
+            return False  # before the gripper's first format_action (never after a policy step's)
+        out, robot.torques, gripper.current_action = self.fused(
+            count, *self.addresses, arm.site, arm.jacp, arm.jacr, arm.mass_matrix, self.site_xpos, self.site_xmat,
+            self.qpos, self.qvel, self.qM, self.qfrc_bias, arm.qpos_index, arm.qvel_index, ctrl.goal_pos,
+            np.array(ctrl.goal_ori), ctrl.kp, ctrl.kd, ctrl.initial_joint, ctrl.uncoupling, arm.torque_low,
+            arm.torque_high, arm.arm_actuators, self.ctrl, step, current, arm.gripper_actuators, arm.gripper_bias,
+            arm.gripper_weight,
+        )  # fmt: skip
+        (ctrl.torques, ctrl.ee_pos, ctrl.ee_ori_mat, ctrl.ee_pos_vel, ctrl.ee_ori_vel, ctrl.joint_pos, ctrl.joint_vel,
+         ctrl.J_pos, ctrl.J_ori, ctrl.J_full, ctrl.mass_matrix) = out  # fmt: skip
+        ctrl.new_update = True  # robosuite's base `run_controller`
+        return True

@@ -23,8 +23,9 @@ RTLD_LOCAL. Loading numpy's OpenBLAS and MuJoCo into numba's linker instead
 `pinv` fail inside the kernel, in numba's `np.linalg` on scipy's LAPACK
 ("Insufficient memory for buffer allocation required by LAPACK"; the likely cause, not confirmed:
 global symbols of numpy's 64-bit-index OpenBLAS taking the place of scipy's OpenBLAS's own inside
-its LAPACK). So the kernel is compiled in each process, at its first call (about 7 s here), and only by a process
-that has run enough steps to gain it back (`kernel_if_worth_it`).
+its LAPACK). So the kernel is compiled in each process, at its first call (about 7 s here; about 14 s with
+`fused_substeps`'s call around it, which links it in), and only by a process that has run enough
+steps to gain it back (`kernel_if_worth_it`).
 
 `kernel()` is None where any of this is not at hand (numpy without its bundled OpenBLAS, robosuite's
 kernels not jitted, MuJoCo bindings without raw addresses): `arm_control` then runs its NumPy path.
@@ -65,12 +66,18 @@ def _numpy_dgemv():
     return None
 
 
+@functools.cache
+def mujoco_library() -> ctypes.CDLL | None:
+    """The MuJoCo library its Python bindings loaded (dlopen of the same file: the same library)."""
+    found = sorted(Path(mujoco.__file__).parent.glob("libmujoco.so*"))
+    return ctypes.CDLL(str(found[0])) if found else None
+
+
 def _mujoco_functions():
     """MuJoCo's `mj_jacSite` and `mj_fullM` from the library its Python bindings loaded."""
-    found = sorted(Path(mujoco.__file__).parent.glob("libmujoco.so*"))
-    if not found:
+    lib = mujoco_library()
+    if lib is None:
         return None
-    lib = ctypes.CDLL(str(found[0]))
     pointer = ctypes.c_size_t
     jac_site, full_m = lib.mj_jacSite, lib.mj_fullM
     jac_site.restype = full_m.restype = None
@@ -80,7 +87,9 @@ def _mujoco_functions():
 
 
 # Compiled in each process (about 7 s here), the kernel saves about 0.1 ms a substep against the
-# NumPy path (docs/benchmarks.md): it pays for itself after some 70,000 substeps. So a process runs
+# NumPy path (docs/benchmarks.md): it pays for itself after some 70,000 substeps. The fused
+# substeps (compiled with it where unobserved steps run: about 14 s in all) save some 2 ms more
+# per unobserved control step: the two pay back after some 3,000-4,000 control steps. So a process runs
 # the NumPy path (the same bits) for its first KERNEL_AFTER_STEPS control steps (a certificate, build
 # or validation worker: its first few episodes or cases) and the kernel from its next env reset on;
 # a short process (one `vpro eval` episode, most tests) never compiles it.

@@ -24,7 +24,8 @@ control step without robosuite's repeated forward passes.
   control is robosuite's OSC and gripper arithmetic without its lookups, copies and property calls
   (`arm_control`). Same state, observations, reward and success, bit for bit
   (tests/libero/test_physics.py, tests/libero/test_arm_control.py), at about a third of the step's
-  cost.
+  cost. Where nothing observes the substeps (`observe=False`), substeps 1..24 run in one compiled
+  call instead (`fused_substeps`: the same operations, without the Python around them).
   Every env built here steps that way (`control_step`, in place of LIBERO's and robosuite's `step`).
 - `physics_step(env, action)`: the same control step for the physics only, without what only an
   observer reads (observables updated at every substep, observations, reward and success): settling
@@ -82,6 +83,7 @@ class PhysicsCounters:
 COUNTERS = PhysicsCounters()
 _MODELS: OrderedDict[str, mujoco.MjModel] = OrderedDict()
 _FAST = [True]
+_METERED = [False]  # inside `metered()`: every MuJoCo step through the bindings, which it times
 
 
 @contextlib.contextmanager
@@ -103,7 +105,7 @@ def fast() -> bool:
 def metered() -> Iterator[None]:
     """Count the seconds of every mj_step, mj_step1, mj_step2 and mj_forward (robosuite's, the
     controller's, ours) in `COUNTERS.mj_seconds` inside the block (`vpro bench build`; a timer call
-    per MuJoCo call)."""
+    per MuJoCo call; the fused substeps, which call MuJoCo's C functions directly, are off in it)."""
     real = {name: getattr(mujoco, name) for name in ("mj_step", "mj_step1", "mj_step2", "mj_forward")}
 
     def timed(fn):
@@ -118,9 +120,11 @@ def metered() -> Iterator[None]:
 
     for name, fn in real.items():
         setattr(mujoco, name, timed(fn))
+    before, _METERED[0] = _METERED[0], True
     try:
         yield
     finally:
+        _METERED[0] = before
         for name, fn in real.items():
             setattr(mujoco, name, fn)
 
@@ -306,7 +310,11 @@ def _substeps(inner, action, observe: bool) -> None:
     sim = inner.sim
     model, data = sim.model._model, sim.data._data
     arms = arm_control.Arms.of(inner)
-    for substep in range(int(inner.control_timestep / inner.model_timestep)):
+    count = int(inner.control_timestep / inner.model_timestep)
+    fused = arms.fused_substeps if arms is not None and not observe and not _METERED[0] else None
+    for substep in range(count):
+        if substep == 1 and fused is not None and fused(action, count - 1):
+            break  # the rest of the control step in one compiled call (`fused_substeps`)
         mujoco.mj_step1(model, data)
         if substep and arms is not None:
             arms.control(action)  # between policy steps: robosuite's arm control, written out (arm_control)
