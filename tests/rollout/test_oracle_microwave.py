@@ -114,7 +114,7 @@ def test_half_turn_goes_the_way_the_wrist_has_room_for(scene):
     s.set_joint(w.wrist_joint, hi - 0.3)
     per_rad = float(w.d.xaxis[w.wrist_joint][2])
     for angle in (np.pi - 0.01, -(np.pi - 0.01)):
-        turn = cavity.wrist_turn(w, angle)
+        turn = motion.wrist_turn(w, angle)
         assert w.wrist_room(turn * per_rad) > 0, (angle, turn)
 
 

@@ -25,7 +25,7 @@ from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
 from vpro_assets.rollout.policies.oracle.clearance import object_boxes, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import ROBOT_BASE_XY, handle, outer_part_grasp
 from vpro_assets.rollout.policies.oracle.hand import HAND_PARTS
-from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
+from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, UP, Actions
 from vpro_assets.rollout.policies.oracle.pick import pick
 from vpro_assets.rollout.policies.oracle.pick_place import Destination, carry, lower_and_release, support_height
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
@@ -46,7 +46,7 @@ BEHIND_FRONT_M = 0.008  # the object's front this far behind the front face
 PUSH_TILT_RAD = 0.6  # fingertips lead the wrist by about 6 cm into the mouth
 PUSH_HEIGHT_M = 0.025  # fingertips this far above the floor while pushing
 PUSH_STEP_M = 0.01
-TURN_STEPS = 30
+TURN_STEPS, TURN_HOLD_M = 30, 0.01  # a turn in the hand (`motion.turn_about`): each move's steps and tolerance
 # A handle pinched farther than this from the arm's base leaves the arm stretched, its elbow at its
 # limit: libero_10-09's familiar-position mug, its handle's grip 0.786 m out at 1.0 m, was lifted but
 # could then not be carried back toward the base (the grip site stayed 8 cm out from the stage).
@@ -57,7 +57,6 @@ CARRY_REACH_M = 0.76
 # Set down nearer (`bring_near`), the handle's grip NEAR_MARGIN_M inside NEAR_M of the arm's base
 # (NEAR_M: the reach first taken, 0.74; where the familiar-position mug is set down is unchanged).
 NEAR_M, NEAR_MARGIN_M = 0.74, 0.02
-TURN_TOL, WAY_TOL = 0.05, 0.3  # rad: a turn's end, and its way points (passed on the move)
 WALL_PROBE_M = 0.06  # a side counts as walled when a geom lies this far past the region's box
 
 
@@ -174,31 +173,6 @@ def _stage_taken(world: World, held: str, region: str, body_xy: np.ndarray, bott
     return bool(np.any(near & (boxes[:, 1, 2] > bottom)))
 
 
-def wrist_turn(world: World, angle: float) -> float:
-    """Of turning the hand `angle` about the vertical or the other way round to the same heading,
-    the one that keeps the wrist's last joint within its range (an inverted mug, taken by its
-    handle on the opening's side, turns half a circle: the short way took libero_10-09's wrist
-    from 2.24 rad into its 2.90 limit, and the hand stayed there with the mug's handle inward)."""
-    per_rad = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per turn about the vertical
-    other = angle - 2 * np.pi * np.sign(angle) if angle else angle
-    return max((angle, other), key=lambda a: world.wrist_room(a * per_rad))
-
-
-def turn_about_vertical(world: World, angle: float) -> Actions:
-    """Turn the hand `angle` about the vertical at the grip site, the way the wrist has room for,
-    through way points at most a quarter turn apart (a half turn commanded at once goes the short
-    way, whichever that is)."""
-    angle = wrist_turn(world, angle)
-    start, at = world.eef_mat(), world.eef()
-    pieces = max(1, int(np.ceil(abs(angle) / (np.pi / 2) - 1e-6)))
-    for k in range(1, pieces + 1):
-        orient = quat_matrix(axis_angle_quat([0, 0, 1], angle * k / pieces)) @ start
-        last = k == pieces
-        yield from motion.move_to(
-            world, at, world.hold_grip, orient, tol=0.01, max_steps=TURN_STEPS, turn_tol=TURN_TOL if last else WAY_TOL
-        )
-
-
 def put_in(world: World, held: str, region: str) -> Actions:
     """Pick `held` and put it into the covered cavity of `region`."""
     cav = covered(world, region)
@@ -209,8 +183,10 @@ def put_in(world: World, held: str, region: str) -> Actions:
         yield from bring_near(world, held, toward)
         toward = handle_side(world, held, -cav.inward)
     yield from pick(world, held, toward=toward)
-    # Turn the held object about the grip so that what was taken leads out of the opening.
-    yield from turn_about_vertical(world, _signed_angle(toward, -cav.inward))
+    # Turn the held object about the grip so that what was taken leads out of the opening, the way
+    # the wrist has room for (`motion.wrist_turn`).
+    turn = motion.wrist_turn(world, _signed_angle(toward, -cav.inward))
+    yield from motion.turn_about(world, UP, turn, tol=TURN_HOLD_M, max_steps=TURN_STEPS)
     grip = world.eef()[:2] - world.body_pos(held)[:2]
     box = world.box(held)
     hang = world.eef()[2] - box.lo[2]

@@ -46,7 +46,7 @@ from vpro_assets.core.mjgeom import axis_angle_quat, geom_corners, quat_matrix
 from vpro_assets.rollout.policies.oracle import motion
 from vpro_assets.rollout.policies.oracle.articulation import joint_for
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
-from vpro_assets.rollout.policies.oracle.world import ROBOT_PREFIXES, SkillFailed, World
+from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
 
 LEAD_RAD = 0.25  # aim this far ahead of the door's current angle
 EDGE_INSET = 0.8  # push at this fraction of the door's radius
@@ -125,16 +125,6 @@ def _turn_at(world: World, at: np.ndarray, orient: np.ndarray) -> Actions:
         yield action
 
 
-def _touches(world: World, geoms: frozenset[int]) -> bool:
-    """Whether the robot (arm or gripper) touches any of `geoms`."""
-    for i in range(world.d.ncon):
-        a, b = int(world.d.contact[i].geom1), int(world.d.contact[i].geom2)
-        other = b if a in geoms else a if b in geoms else None
-        if other is not None and other not in geoms and world.root_name(other).startswith(ROBOT_PREFIXES):
-            return True
-    return False
-
-
 def _turn(axis: np.ndarray, angle: float) -> np.ndarray:
     return quat_matrix(axis_angle_quat(axis, angle))
 
@@ -211,7 +201,7 @@ def close(world: World, region: str) -> Actions:
     for action in motion.move_to(
         world, start, CLOSE, orient, tol=0.01, max_steps=80, speed=0.6, stall_steps=STALL_STEPS
     ):
-        if _touches(world, door_geoms):
+        if world.robot_touches(door_geoms):
             break
         yield action
     for _ in range(220):

@@ -28,8 +28,10 @@ OPEN, CLOSE = -1.0, 1.0
 GRIPPER_STEPS = 12  # control steps for the fingers to close or open
 TOL_M = 0.008
 TURN_TOL = 0.05  # rad
+WAY_TOL = 0.3  # rad: a way point of a turn (`turn_about`) is passed this close (on the move)
 TURN_IN_PLACE_SPEED = 0.5  # of the action's full turn (`turn_in_place`)
 STALL_M = 0.003  # a move has stalled when the grip site moved less than this in its stall steps
+UP = np.array([0.0, 0.0, 1.0])
 DOWN = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # grip site pointing down, fingers along world y
 
 
@@ -130,6 +132,39 @@ def turn_in_place(
         action = action_to(world, hold, world.hold_grip, goal, speed=speed)
         action[3:6] *= TURN_IN_PLACE_SPEED
         yield action
+
+
+def wrist_yaw_room(world: World, yaw: float) -> float:
+    """How far the wrist's last joint stays from its nearer limit after the hand, pointing down,
+    turns `yaw` rad more about the vertical (negative: past it)."""
+    per_rad = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per radian of yaw
+    return world.wrist_room(yaw * per_rad)
+
+
+def wrist_turn(world: World, angle: float) -> float:
+    """Of turning the hand `angle` about the vertical or the other way round to the same heading,
+    the one that keeps the wrist's last joint within its range (an inverted mug, taken by its
+    handle on the opening's side, turns half a circle: the short way took libero_10-09's wrist
+    from 2.24 rad into its 2.90 limit, and the hand stayed there with the mug's handle inward)."""
+    other = angle - 2 * np.pi * np.sign(angle) if angle else angle
+    return max((angle, other), key=lambda a: wrist_yaw_room(world, a))
+
+
+def turn_about(
+    world: World, axis, angle: float, at: np.ndarray | None = None, *, tol: float, max_steps: int
+) -> Actions:
+    """Turn the hand `angle` rad about `axis` (world frame) holding what it holds, the grip site
+    held at (or moving toward) `at`, where it is when None: through way points at most a quarter
+    turn apart (a half turn commanded at once goes the short way, whichever that is), each passed
+    within WAY_TOL, the last reached within TURN_TOL; `tol` and `max_steps` are each move's
+    (`move_to`)."""
+    start = world.eef_mat()
+    at = world.eef() if at is None else at
+    pieces = max(1, int(np.ceil(abs(angle) / (np.pi / 2) - 1e-6)))
+    for k in range(1, pieces + 1):
+        goal = quat_matrix(axis_angle_quat(axis, angle * k / pieces)) @ start
+        turn_tol = TURN_TOL if k == pieces else WAY_TOL
+        yield from move_to(world, at, world.hold_grip, goal, tol=tol, max_steps=max_steps, turn_tol=turn_tol)
 
 
 def hold_still(world: World, grip: float, steps: int) -> Actions:

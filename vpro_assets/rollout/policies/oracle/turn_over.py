@@ -28,7 +28,7 @@ from vpro_assets.rollout.policies.oracle import lay, motion
 from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import ROBOT_BASE_XY
-from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
+from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, UP, Actions
 from vpro_assets.rollout.policies.oracle.pick_place import support_height
 from vpro_assets.rollout.policies.oracle.shape import MAX_PINCH_M
 from vpro_assets.rollout.policies.oracle.world import SkillFailed, World
@@ -39,8 +39,7 @@ HOVER_M = 0.05  # the hand comes down onto the top edge from this far over it
 WRIST_MARGIN_RAD = 0.15  # the wrist's last joint this far inside its range after a turn
 CARRY_CLEAR_M = 0.02  # carried, the object's bottom this far over the table and what it passes
 TIP_STEPS = 60
-TURN_STEPS = 40  # per quarter turn about the vertical (`turn_about`)
-WAY_TOL = 0.3  # rad: a way point of a turn is passed this close
+TURN_STEPS, TURN_HOLD_M = 40, 0.02  # per quarter turn about the vertical (`motion.turn_about`), and its tolerance
 # Where the tipped object is set down (`spot`): the level hand's wrist comes down 20 cm behind the
 # grip site and 10 cm over it, the forearm behind that; the line back from the grip site toward the
 # base (ARM_BACK_M long) keeps ARM_ROOM_M (in plan) from every obstacle, and the object's footprint
@@ -146,14 +145,13 @@ def top_pinch(world: World, obj: str, across: np.ndarray, then: float) -> tuple[
     point = (top.min(0) + top.max(0)) / 2
     point[2] = pts[:, 2].max() - PINCH_DEPTH_M
     now = motion.yaw_of(world.eef_mat())
-    per_rad = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per radian of yaw
     turns = []
     for fingers in (across, -across):
         turn = (float(np.arctan2(fingers[1], fingers[0])) - now + np.pi) % (2 * np.pi) - np.pi
         turns += [turn + k * 2 * np.pi for k in (-1, 0, 1)]
 
     def room(turn: float) -> float:
-        return min(world.wrist_room(turn * per_rad), world.wrist_room((turn + then) * per_rad))
+        return min(motion.wrist_yaw_room(world, turn), motion.wrist_yaw_room(world, turn + then))
 
     return point, max(turns, key=lambda t: (room(t) >= WRIST_MARGIN_RAD, -abs(t), room(t)))
 
@@ -175,9 +173,8 @@ def quarter(world: World, obj: str, ahead: np.ndarray) -> Actions:
     point, turn = top_pinch(world, obj, across, yaw)
     world.hold_grip = OPEN
     over = point + [0.0, 0.0, HOVER_M]
-    yield from turn_about(
-        world, np.array([0.0, 0.0, 1.0]), turn, at=np.array([*over[:2], max(over[2], world.eef()[2])])
-    )
+    above = np.array([*over[:2], max(over[2], world.eef()[2])])
+    yield from motion.turn_about(world, UP, turn, at=above, tol=TURN_HOLD_M, max_steps=TURN_STEPS)
     down = world.eef_mat()
     yield from motion.move_to(world, over, OPEN, down, tol=0.01, max_steps=40)
     yield from motion.move_to(world, point, OPEN, down, tol=0.006, max_steps=40, stall_steps=5)
@@ -224,18 +221,6 @@ def set_down(world: World, obj: str) -> Actions:
         yield motion.action_to(world, world.eef() - [0.0, 0.0, max(above, 0.03)], CLOSE, orient, speed=speed)
     world.hold_grip = OPEN
     yield from motion.gripper(world, OPEN, orient=orient)
-
-
-def turn_about(world: World, axis: np.ndarray, angle: float, at: np.ndarray | None = None) -> Actions:
-    """Turn the hand `angle` about `axis` (moving toward `at`), through way points at most a quarter
-    turn apart (a half turn commanded at once goes the short way, whichever that is)."""
-    start = world.eef_mat()
-    at = world.eef() if at is None else at
-    pieces = max(1, int(np.ceil(abs(angle) / (np.pi / 2) - 1e-6)))
-    for k in range(1, pieces + 1):
-        goal = Rotation.from_rotvec(np.asarray(axis) * angle * k / pieces).as_matrix() @ start
-        tol = motion.TURN_TOL if k == pieces else WAY_TOL
-        yield from motion.move_to(world, at, world.hold_grip, goal, tol=0.02, max_steps=TURN_STEPS, turn_tol=tol)
 
 
 def turn_over(world: World, obj: str) -> Actions:

@@ -9,7 +9,7 @@ makes a new `World` after each reset.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -245,20 +245,24 @@ class World:
         return colliding(self.m, [g for g in range(self.m.ngeom) if self.m.geom_bodyid[g] in bodies])
 
     # ---- contacts --------------------------------------------------------------------------------
+    def _touching_geoms(self, geoms: Collection[int]) -> Iterator[int]:
+        """The geom outside `geoms` of each contact between one of `geoms` and another geom."""
+        for i in range(self.d.ncon):
+            c = self.d.contact[i]
+            a, b = int(c.geom1), int(c.geom2)
+            other = b if a in geoms else a if b in geoms else None
+            if other is not None and other not in geoms:
+                yield other
+
     def touching(self, instance: str) -> set[str]:
         """Top-level body names (`..._main` stripped) of everything in contact with the instance,
         'gripper' for the gripper."""
         mine = set(self.entity(instance).geoms)
-        out = set()
-        for i in range(self.d.ncon):
-            c = self.d.contact[i]
-            a, b = int(c.geom1), int(c.geom2)
-            if a in mine or b in mine:
-                other = b if a in mine else a
-                if other in mine:
-                    continue
-                out.add("gripper" if other in self.gripper_geoms else self._root_name(other))
-        return out
+        return {"gripper" if g in self.gripper_geoms else self._root_name(g) for g in self._touching_geoms(mine)}
+
+    def robot_touches(self, geoms: Collection[int]) -> bool:
+        """Whether the robot (arm, gripper or mount) touches any of `geoms`."""
+        return any(self._root_name(g).startswith(ROBOT_PREFIXES) for g in self._touching_geoms(geoms))
 
     def root_name(self, geom: int) -> str:
         """The top-level body name of a geom (`..._main` stripped)."""
