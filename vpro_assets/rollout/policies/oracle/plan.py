@@ -18,7 +18,7 @@ A flat object too wide to pinch that must go onto a table region is pushed there
 must go into a covered cavity (the microwave) goes in sideways through its opening, stood upright
 first when it lies on its side (`stand`). An upside-down object that must go into a region whose box
 its body position, so standing, stays above (libero_10-05's book into the caddy) is turned over
-first (`turn_over`).
+first (`turn_over`); one lying flat, too wide every way to pinch, is stood on its end first (`pivot`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,18 @@ from functools import partial
 import numpy as np
 
 from vpro_assets.libero.task_record import TABLE_CATEGORIES
-from vpro_assets.rollout.policies.oracle import cavity, door, drawer, knob, push, stand, sweep, swing, turn_over
+from vpro_assets.rollout.policies.oracle import (
+    cavity,
+    door,
+    drawer,
+    knob,
+    pivot,
+    push,
+    stand,
+    sweep,
+    swing,
+    turn_over,
+)
 from vpro_assets.rollout.policies.oracle.articulation import fully_open, is_drawer, joint_for, needs_opening, owner_of
 from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.pick_place import pick_place
@@ -97,6 +108,10 @@ def _stand_up(world: World, held: str) -> Actions:
 
 def _turn_over(world: World, held: str) -> Actions:
     return turn_over.turn_over(world, held)
+
+
+def _stand_on_end(world: World, held: str) -> Actions:
+    return pivot.stand_up(world, held)
 
 
 def _pick_place(world: World, held: str, relation: str, dest: str, coming: tuple[str, ...] = ()) -> Actions:
@@ -193,6 +208,8 @@ def plan(world: World, goal: list[tuple[str, ...]], holds: Callable[[tuple[str, 
             else:
                 if pred[0] == "in" and turn_over.needs_turning_over(world, obj, dest):  # upside down, too tall
                     steps.append(Step("turn_over", ("upright", obj), partial(_turn_over, held=obj)))
+                elif pred[0] == "in" and pivot.needs_pivot(world, obj, dest):  # flat, too wide to pinch
+                    steps.append(Step("pivot", ("upright", obj), partial(_stand_on_end, held=obj)))
                 # The objects that go onto the same region after this one (`room`).
                 coming = tuple(p[1] for p in todo[todo.index(pred) + 1 :] if p[0] == pred[0] and p[2] == dest)
                 run = partial(_pick_place, held=obj, relation=pred[0], dest=dest, coming=coming)
