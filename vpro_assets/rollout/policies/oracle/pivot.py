@@ -156,8 +156,13 @@ def stand_up(world: World, obj: str) -> Actions:
     down, turn = _orientation(world, axis)
     world.hold_grip = OPEN
     over = point + [0.0, 0.0, HOVER_M]
-    yield from turn_over.turn_about(
-        world, np.array([0.0, 0.0, 1.0]), turn, at=np.array([*over[:2], max(over[2], world.eef()[2])])
+    yield from motion.turn_about(
+        world,
+        motion.UP,
+        turn,
+        at=np.array([*over[:2], max(over[2], world.eef()[2])]),
+        tol=turn_over.TURN_HOLD_M,
+        max_steps=turn_over.TURN_STEPS,
     )
     yield from motion.move_to(world, over, OPEN, down, tol=0.01, max_steps=40)
     yield from motion.move_to(world, point, OPEN, down, tol=0.004, max_steps=40, speed=0.5, stall_steps=5)
