@@ -19,7 +19,7 @@ from vpro_assets.perturb.occluders import GeomHulls
 from vpro_assets.perturb.phases import PhaseTracker
 from vpro_assets.rollout.contacts import ContactTracker
 from vpro_assets.rollout.episode import EpisodeSession, EpisodeSettings
-from vpro_assets.rollout.policies.oracle import clearance, nudge, push
+from vpro_assets.rollout.policies.oracle import clearance, nudge, pick_place, push
 from vpro_assets.rollout.policies.oracle.clearance import PIECE_M, obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import hand_stop, narrow_top, plan_grasp
 from vpro_assets.rollout.policies.oracle.pick import pick
@@ -270,3 +270,75 @@ def test_the_clearing_push_made_as_needed_is_the_one_made_from_all_candidates(sc
         assert got is not None and plain is not None  # a push found: the search ran its course
         assert np.array_equal(got.direction, plain.direction) and np.array_equal(got.orient, plain.orient)
         assert (got.dist, got.behind) == (plain.dist, plain.behind)
+
+
+def _passed_plain(boxes, own, shifts, near):
+    """`pick_place._passed` as `corridor_tops` wrote it: every box's gaps at every shift."""
+    gap = pick_place._plan_gaps(boxes, own, shifts)
+    away = (gap[:, 0] >= pick_place.AWAY_GAP_M) & np.all(gap >= gap[:, :1] - 1e-9, axis=1)
+    return np.flatnonzero(near & away)
+
+
+def test_corridor_gaps_measured_for_the_boxes_in_question_leave_out_what_all_gaps_did():
+    """`pick_place._passed` (which obstacles the carry leads away from) measures the gaps only for
+    the boxes near the corridor, AWAY_GAP_M beside the object, a few shifts at a time: the same
+    boxes as every gap measured, with boxes exactly AWAY_GAP_M off and paths leading away and toward."""
+    rng = np.random.default_rng(2)
+    passed = 0
+    for trial in range(300):
+        boxes = _boxes(rng, int(rng.integers(0, 80)), 0.3)
+        own = _boxes(rng, int(rng.integers(1, 12)), 0.05)
+        if trial % 4 == 0 and len(boxes):  # a box exactly AWAY_GAP_M beside the object's
+            boxes[0, 0, 0] = own[:, 1, 0].max() + pick_place.AWAY_GAP_M
+        end = rng.uniform(-0.4, 0.4, 2)
+        shifts = np.linspace(0, 1, int(rng.integers(2, 40)))[:, None] * end
+        near = rng.random(len(boxes)) < 0.7
+        got = pick_place._passed(boxes, own, shifts, near)
+        np.testing.assert_array_equal(got, _passed_plain(boxes, own, shifts, near))
+        passed += len(got)
+    assert passed > 100  # boxes were left out
+
+
+def _leg_plain(world, obj, frm, to, boxes, hand, owners, geoms):
+    """`push._leg` as first written: every sweep tested against all the boxes."""
+    direction = push._unit(to - frm)
+    z = world.box(obj).lo[2] + push.CONTACT_Z_M
+    t = np.linspace(0.0, 1.0, push.PATH_SAMPLES)[:, None]
+    centres = np.column_stack([frm + t * (to - frm), np.full(push.PATH_SAMPLES, z)])
+    obj_local = world.points(obj) - np.append(world.body_pos(obj)[:2], z)
+    obj_hits = push._sweep(boxes, obj_local, centres)
+    across = np.array([-direction[1], direction[0]])
+    best = None
+    for deg in push.YAWS_DEG:
+        c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+        axis = np.array([c * across[0] - s * across[1], s * across[0] + c * across[1], 0.0])
+        orient = push.grasp_orientation(world, axis)
+        for inside in push.INSIDE_CHOICES_M:
+            grips = centres - np.append(direction * push.back_reach(world, obj, direction, inside), 0.0)
+            hits = set(obj_hits)
+            for part in hand:
+                hits |= push._sweep(boxes, part @ orient.T, grips)
+            score = (len({owners[h] for h in hits}), len({geoms[h] for h in hits}))
+            if best is None or score < best[0]:
+                best = (score, hits, push.Leg(to, orient, inside))
+    return best[1], best[2]
+
+
+def test_a_push_leg_tested_against_the_boxes_its_sweeps_reach_is_the_leg_tested_against_all(scene):
+    """`push._leg` tests each sweep only against the boxes reaching the box around all the leg's
+    sweeps: on libero_goal-05's plate, for legs toward 12 points around it (near the cabinet, the
+    stove and the bowl), the same obstacles met and the same leg as every sweep against every box."""
+    s = scene("libero_goal-05/normal")
+    w, obj = s.world, "plate_1"
+    boxes, geoms = clearance.obstacle_pieces(w, (obj,))
+    owners = [w.root_name(g) for g in geoms]
+    hand, pos = push.hand_points(w), w.body_pos(obj)[:2]
+    met = 0
+    for a in np.linspace(0, 2 * np.pi, 12, endpoint=False):
+        to = pos + 0.25 * np.array([np.cos(a), np.sin(a)])
+        got, leg = push._leg(w, obj, pos, to, boxes, hand, owners, geoms)
+        plain, plain_leg = _leg_plain(w, obj, pos, to, boxes, hand, owners, geoms)
+        assert got == plain and leg.inside == plain_leg.inside
+        assert np.array_equal(leg.orient, plain_leg.orient) and np.array_equal(leg.to, plain_leg.to)
+        met += bool(got)
+    assert met > 0  # obstacles were met

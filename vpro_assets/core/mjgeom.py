@@ -49,15 +49,25 @@ def geom_pieces(model, data, geom: int, piece_m: float) -> np.ndarray:
     `piece_m` long along each of its axes. A rotated plate's one world box covers much empty
     space (a cabinet turned 64 degrees: its top panel's box reaches 5 cm over a bowl the panel
     does not cover); its pieces' boxes hug it to about `piece_m`."""
-    half = model.geom_aabb[geom][3:]
+    return posed_pieces(data, geom, piece_corners(model.geom_aabb[geom], piece_m))
+
+
+def piece_corners(aabb: np.ndarray, piece_m: float) -> np.ndarray:
+    """The corners (K, 8, 3) of `geom_pieces`' cells in the geom's frame, from its box `aabb` (its
+    row of `model.geom_aabb`: centre, half sizes): of the model only, so a caller that measures a
+    geom at many poses makes them once."""
+    half = aabb[3:]
     counts = np.maximum(1, np.ceil(2 * half / piece_m).astype(int))
     axes = [np.linspace(-h, h, n + 1) for h, n in zip(half, counts, strict=True)]
     lo = np.stack(np.meshgrid(*(a[:-1] for a in axes), indexing="ij"), -1).reshape(-1, 3)
     hi = np.stack(np.meshgrid(*(a[1:] for a in axes), indexing="ij"), -1).reshape(-1, 3)
-    center = (lo + hi) / 2 + model.geom_aabb[geom][:3]
-    corners = center[:, None, :] + _CORNERS[None] * ((hi - lo) / 2)[:, None, :]  # (K, 8, 3) local
-    mat = data.geom_xmat[geom].reshape(3, 3)
-    world = corners @ mat.T + data.geom_xpos[geom]
+    center = (lo + hi) / 2 + aabb[:3]
+    return center[:, None, :] + _CORNERS[None] * ((hi - lo) / 2)[:, None, :]
+
+
+def posed_pieces(data, geom: int, corners: np.ndarray) -> np.ndarray:
+    """`geom_pieces` from its cells' corners (`piece_corners`) and the geom's pose in `data`."""
+    world = corners @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom]
     return np.stack([world.min(1), world.max(1)], axis=1)
 
 

@@ -80,6 +80,14 @@ def _sweep(boxes: np.ndarray, local: np.ndarray, path: np.ndarray) -> set[int]:
     return set(near[met].tolist())
 
 
+def _reaching(boxes: np.ndarray, sweeps: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """The indices of the boxes that reach the box around all the point sets `local` translated
+    along `path` of `sweeps` ((local, path) pairs, as `_sweep` takes them)."""
+    pts = [(path[:, None, :] + local[None]).reshape(-1, 3) for local, path in sweeps]
+    lo, hi = np.min([p.min(0) for p in pts], axis=0), np.max([p.max(0) for p in pts], axis=0)
+    return np.flatnonzero(np.all(boxes[:, 0] < hi, axis=1) & np.all(boxes[:, 1] > lo, axis=1))
+
+
 def back_reach(world: World, obj: str, direction: np.ndarray, inside: float = INSIDE_M) -> float:
     """From the object's body position back to the fingertips, for a push along `direction`."""
     proj = (world.points(obj)[:, :2] - world.body_pos(obj)[:2]) @ direction
@@ -108,21 +116,33 @@ def _leg(
     t = np.linspace(0.0, 1.0, PATH_SAMPLES)[:, None]
     centres = np.column_stack([frm + t * (to - frm), np.full(PATH_SAMPLES, z)])
     obj_local = world.points(obj) - np.append(world.body_pos(obj)[:2], z)
-    obj_hits = _sweep(boxes, obj_local, centres)
     across = np.array([-direction[1], direction[0]])
-    best: tuple[tuple[int, int], set, Leg] | None = None
+    # Every sweep of the leg (the object's; each hand part's at each yaw and start inside), and the
+    # boxes reaching the box around all of them: only those can reach the box around one sweep
+    # (`_sweep`'s first test), so each sweep is tested against them alone (the same boxes met).
+    legs = []
     for deg in YAWS_DEG:
         c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
         axis = np.array([c * across[0] - s * across[1], s * across[0] + c * across[1], 0.0])
         orient = grasp_orientation(world, axis)
         for inside in INSIDE_CHOICES_M:
             grips = centres - np.append(direction * back_reach(world, obj, direction, inside), 0.0)
-            hits = set(obj_hits)
-            for part in hand:
-                hits |= _sweep(boxes, part @ orient.T, grips)
-            score = (len({owners[h] for h in hits}), len({geoms[h] for h in hits}))
-            if best is None or score < best[0]:
-                best = (score, hits, Leg(to, orient, inside))
+            legs.append((Leg(to, orient, inside), [(part @ orient.T, grips) for part in hand]))
+    near = _reaching(boxes, [(obj_local, centres), *(sweep for _, parts in legs for sweep in parts)])
+    reached = boxes[near]
+
+    def met(local: np.ndarray, path: np.ndarray) -> set[int]:
+        return set(near[sorted(_sweep(reached, local, path))].tolist())
+
+    obj_hits = met(obj_local, centres)
+    best: tuple[tuple[int, int], set, Leg] | None = None
+    for leg, parts in legs:
+        hits = set(obj_hits)
+        for local, grips in parts:
+            hits |= met(local, grips)
+        score = (len({owners[h] for h in hits}), len({geoms[h] for h in hits}))
+        if best is None or score < best[0]:
+            best = (score, hits, leg)
     assert best is not None  # YAWS_DEG and INSIDE_CHOICES_M are not empty
     return best[1], best[2]
 

@@ -11,13 +11,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import mujoco
 import numpy as np
 
 from vpro_assets.core.errors import VProError
-from vpro_assets.core.mjgeom import colliding, geom_corners, geom_pieces, subtree
+from vpro_assets.core.mjgeom import colliding, geom_corners, piece_corners, posed_pieces, subtree
 from vpro_assets.libero.env import GRIPPER_PREFIX
 from vpro_assets.libero.tasks import TaskRecord
 from vpro_assets.perturb.entities import GRIP_SITE, Entity, object_entity
@@ -25,6 +25,15 @@ from vpro_assets.perturb.occluders import GeomHulls
 
 ROBOT_PREFIXES = ("robot0_", GRIPPER_PREFIX, "mount0_")
 FINGER_JOINTS = ("gripper0_finger_joint1", "gripper0_finger_joint2")
+
+
+@lru_cache(maxsize=1024)
+def _piece_corners(aabb: bytes, piece_m: float) -> np.ndarray:
+    """`core.mjgeom.piece_corners` of a geom's box (its `geom_aabb` row's bytes; read-only): of the
+    model only, kept for every episode and every scene whose geoms have that box."""
+    corners = piece_corners(np.frombuffer(aabb, dtype=np.float64), piece_m)
+    corners.flags.writeable = False
+    return corners
 
 
 class SkillFailed(VProError):
@@ -65,6 +74,7 @@ class World:
         self._geoms: dict[str, list[int]] = {}
         self._obstacle_geoms: dict[tuple[str, ...], list[int]] = {}
         self._posed: dict[tuple[str, int], tuple[bytes, np.ndarray]] = {}
+        self._root_names: dict[int, str] = {}
         self.step = 0  # control steps the oracle has acted
         # The gripper action that keeps a held object: 1 closes on it, 0 keeps the fingers' target
         # where the grasp left it (a gentle pinch, `grasp.foot_grasp`). Set by each pick.
@@ -265,8 +275,10 @@ class World:
         return any(self._root_name(g).startswith(ROBOT_PREFIXES) for g in self._touching_geoms(geoms))
 
     def root_name(self, geom: int) -> str:
-        """The top-level body name of a geom (`..._main` stripped)."""
-        return self._root_name(geom)
+        """The top-level body name of a geom (`..._main` stripped; of the model: found once)."""
+        if geom not in self._root_names:
+            self._root_names[geom] = self._root_name(geom)
+        return self._root_names[geom]
 
     def _root_name(self, geom: int) -> str:
         b = int(self.m.geom_bodyid[geom])
@@ -297,7 +309,11 @@ class World:
         """`core.mjgeom.geom_pieces` of a geom (read-only), measured again only once the geom has
         moved: a function of its pose (`geom_xpos`, `geom_xmat`) and the model, so a pose seen
         before gives the same boxes, bit for bit; most obstacles are fixtures that never move."""
-        return self._at_pose(f"pieces {piece_m}", geom, lambda g: geom_pieces(self.m, self.d, g, piece_m))
+        return self._at_pose(
+            f"pieces {piece_m}",
+            geom,
+            lambda g: posed_pieces(self.d, g, _piece_corners(self.m.geom_aabb[g].tobytes(), piece_m)),
+        )
 
     def obstacle_geoms(self, exclude: tuple[str, ...] = ()) -> list[int]:
         """Collision geoms of everything but the robot, the table/floor and the excluded instances
