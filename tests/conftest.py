@@ -189,6 +189,24 @@ class OracleScene:
         self.cenv.sim.forward()
         self.wait(5)
 
+    def set_pose(self, instance: str, pos, mat) -> None:
+        """Place `instance`'s free body at `pos` with rotation matrix `mat`, everything at rest, and
+        let it settle 20 steps (an object_pose case's start, made in another case's scene)."""
+        import mujoco
+        import numpy as np
+
+        w = self.world
+        body = w.entity(instance).root
+        adr = int(w.m.jnt_qposadr[w.m.body_jntadr[body]])
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, np.asarray(mat, dtype=np.float64).flatten())
+        qpos = self.cenv.sim.data.qpos
+        qpos[adr : adr + 3] = pos
+        qpos[adr + 3 : adr + 7] = quat
+        self.cenv.sim.data.qvel[:] = 0.0
+        self.cenv.sim.forward()
+        self.wait(20)
+
     def plan(self) -> list[str]:
         """The oracle's plan from LIBERO's goal and the current state, one string per step."""
         from vpro_assets.rollout.policies.oracle.plan import plan

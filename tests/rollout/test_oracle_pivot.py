@@ -6,7 +6,6 @@ flat (object_pose-v1-lying), it is wider than the open fingers every way: the pi
 end's lower edge, then picked as it stands in Normal.
 """
 
-import mujoco
 import numpy as np
 import pytest
 from conftest import oracle_episode
@@ -24,17 +23,7 @@ FLAT_MAT = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0]])
 
 def _lay_flat(s) -> None:
     """Lay the scene's book flat as object_pose-v1-lying's trial 0 does, and let it settle."""
-    w = s.world
-    body = w.entity(BOOK).root
-    adr = int(w.m.jnt_qposadr[w.m.body_jntadr[body]])
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, FLAT_MAT.flatten())
-    qpos = s.cenv.sim.data.qpos
-    qpos[adr : adr + 3] = FLAT_POS
-    qpos[adr + 3 : adr + 7] = quat
-    s.cenv.sim.data.qvel[:] = 0.0
-    s.cenv.sim.forward()
-    s.wait(20)
+    s.set_pose(BOOK, FLAT_POS, FLAT_MAT)
 
 
 def test_upright_book_is_not_pivoted(scene):

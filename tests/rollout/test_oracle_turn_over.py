@@ -5,7 +5,6 @@ down (object_pose-v1), its body position (the book's bottom face when upright) s
 box however it is lowered; it is turned over first, by two quarter turns on the table.
 """
 
-import mujoco
 import numpy as np
 import pytest
 from conftest import oracle_episode
@@ -21,19 +20,10 @@ def _stand_on_its_top(s) -> None:
     """Turn the scene's book half a turn about its thickness where it stands (its top down on the
     table), as object_pose-v1 stands it, and let it settle."""
     w = s.world
-    body = w.entity(BOOK).root
-    adr = int(w.m.jnt_qposadr[w.m.body_jntadr[body]])
     mat, pos = w.body_mat(BOOK), w.body_pos(BOOK)
     flip = mat @ Rotation.from_euler("x", np.pi).as_matrix() @ mat.T  # about the body's x: its thickness
     pts = pos + (w.points(BOOK) - pos) @ flip.T
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, (flip @ mat).flatten())
-    qpos = s.cenv.sim.data.qpos
-    qpos[adr : adr + 3] = pos + [0.0, 0.0, w.table_z + 0.002 - pts[:, 2].min()]
-    qpos[adr + 3 : adr + 7] = quat
-    s.cenv.sim.data.qvel[:] = 0.0
-    s.cenv.sim.forward()
-    s.wait(20)
+    s.set_pose(BOOK, pos + [0.0, 0.0, w.table_z + 0.002 - pts[:, 2].min()], flip @ mat)
 
 
 def test_upright_book_is_not_turned_over(scene):
