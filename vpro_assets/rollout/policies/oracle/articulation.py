@@ -45,6 +45,14 @@ def is_drawer(world: World, arg: str) -> bool:
     )
 
 
+def is_fixture_region(world: World, region: str) -> bool:
+    """Whether `region` is a site of one of the task's fixtures and not a drawer's (what a skill that
+    readies an object to go `In` it, `turn_over` or `pivot`, aims at)."""
+    return (
+        world.has_site(region) and not is_drawer(world, region) and owner_of(world, region) in dict(world.task.fixtures)
+    )
+
+
 def joint_for(world: World, arg: str) -> Joint:
     fixture = owner_of(world, arg)
     joints = world.joints_of(fixture)

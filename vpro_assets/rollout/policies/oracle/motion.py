@@ -141,6 +141,17 @@ def wrist_yaw_room(world: World, yaw: float) -> float:
     return world.wrist_room(yaw * per_rad)
 
 
+def yaw_turns(world: World, axis: np.ndarray) -> list[float]:
+    """The turns about the vertical that bring the hand, pointing down, to its fingers along `axis`
+    or `-axis`: each the short way and a full turn either way round of it."""
+    now = yaw_of(world.eef_mat())
+    turns = []
+    for fingers in (axis, -axis):
+        turn = (float(np.arctan2(fingers[1], fingers[0])) - now + np.pi) % (2 * np.pi) - np.pi
+        turns += [turn + k * 2 * np.pi for k in (-1, 0, 1)]
+    return turns
+
+
 def wrist_turn(world: World, angle: float) -> float:
     """Of turning the hand `angle` about the vertical or the other way round to the same heading,
     the one that keeps the wrist's last joint within its range (an inverted mug, taken by its

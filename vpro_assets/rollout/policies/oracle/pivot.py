@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from vpro_assets.rollout.policies.oracle import lay, motion, turn_over
-from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
+from vpro_assets.rollout.policies.oracle.articulation import is_fixture_region
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.hand import FINGERTIP_M, HAND_PARTS, reach_height
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, Actions
@@ -69,13 +69,7 @@ def lies_flat(world: World, obj: str) -> bool:
 def needs_pivot(world: World, obj: str, region: str) -> bool:
     """Whether `obj`, lying flat, too wide every way for the open fingers and thin enough for a pad
     to meet its edge, must be stood up to go `In` `region`: a region of a fixture (not a drawer's)."""
-    if (
-        not world.has_site(region)
-        or is_drawer(world, region)
-        or owner_of(world, region) not in dict(world.task.fixtures)
-    ):
-        return False
-    if not lies_flat(world, obj):
+    if not is_fixture_region(world, region) or not lies_flat(world, obj):
         return False
     pts = world.points(obj)
     return narrowest(pts)[1] > MAX_PINCH_M and float(np.ptp(pts[:, 2])) < MAX_PINCH_M
@@ -117,11 +111,7 @@ def _orientation(world: World, axis: np.ndarray) -> tuple[np.ndarray, float]:
     per_rad = float(world.d.xaxis[world.wrist_joint][2])
     lo, hi = (float(x) for x in world.m.jnt_range[world.wrist_joint])
     q = world.qpos(world.wrist_joint)
-    turns = []
-    for fingers in (axis, -axis):
-        turn = (float(np.arctan2(fingers[1], fingers[0])) - now + np.pi) % (2 * np.pi) - np.pi
-        turns += [turn + k * 2 * np.pi for k in (-1, 0, 1)]
-    turn = min(turns, key=lambda t: (abs(q + t * per_rad - (lo + hi) / 2), abs(t)))
+    turn = min(motion.yaw_turns(world, axis), key=lambda t: (abs(q + t * per_rad - (lo + hi) / 2), abs(t)))
     return motion.down_with_yaw(now + turn), turn
 
 

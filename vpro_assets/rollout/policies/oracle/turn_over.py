@@ -25,7 +25,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from vpro_assets.rollout.policies.oracle import lay, motion
-from vpro_assets.rollout.policies.oracle.articulation import is_drawer, owner_of
+from vpro_assets.rollout.policies.oracle.articulation import is_fixture_region
 from vpro_assets.rollout.policies.oracle.clearance import obstacle_boxes
 from vpro_assets.rollout.policies.oracle.grasp import ROBOT_BASE_XY
 from vpro_assets.rollout.policies.oracle.motion import CLOSE, OPEN, UP, Actions
@@ -74,9 +74,7 @@ def needs_turning_over(world: World, obj: str, region: str) -> bool:
     region's box, while upright it passes into the box as it is lowered (libero_10-05's Normal
     succeeds so: settled, the upright book's body position is 1.3 cm under the box), and the
     object's thinnest side fits between the open fingers."""
-    if not world.has_site(region) or not upside_down(world, obj) or is_drawer(world, region):
-        return False
-    if owner_of(world, region) not in dict(world.task.fixtures):
+    if not is_fixture_region(world, region) or not upside_down(world, obj):
         return False
     up = lay.up_axis(world, obj)
     assert up is not None  # (upside_down found it)
@@ -144,11 +142,7 @@ def top_pinch(world: World, obj: str, across: np.ndarray, then: float) -> tuple[
     top = pts[pts[:, 2] > pts[:, 2].max() - TOP_SLICE_M]
     point = (top.min(0) + top.max(0)) / 2
     point[2] = pts[:, 2].max() - PINCH_DEPTH_M
-    now = motion.yaw_of(world.eef_mat())
-    turns = []
-    for fingers in (across, -across):
-        turn = (float(np.arctan2(fingers[1], fingers[0])) - now + np.pi) % (2 * np.pi) - np.pi
-        turns += [turn + k * 2 * np.pi for k in (-1, 0, 1)]
+    turns = motion.yaw_turns(world, across)
 
     def room(turn: float) -> float:
         return min(motion.wrist_yaw_room(world, turn), motion.wrist_yaw_room(world, turn + then))

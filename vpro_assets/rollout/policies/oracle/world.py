@@ -275,12 +275,16 @@ class World:
         return any(self._root_name(g).startswith(ROBOT_PREFIXES) for g in self._touching_geoms(geoms))
 
     def root_name(self, geom: int) -> str:
-        """The top-level body name of a geom (`..._main` stripped; of the model: found once)."""
-        if geom not in self._root_names:
-            self._root_names[geom] = self._root_name(geom)
-        return self._root_names[geom]
+        """The top-level body name of a geom (`..._main` stripped)."""
+        return self._root_name(geom)
 
     def _root_name(self, geom: int) -> str:
+        # of the model only: found once per geom (contacts ask for it at every step)
+        if geom not in self._root_names:
+            self._root_names[geom] = self._find_root_name(geom)
+        return self._root_names[geom]
+
+    def _find_root_name(self, geom: int) -> str:
         b = int(self.m.geom_bodyid[geom])
         while self.m.body_parentid[b] != 0:
             b = int(self.m.body_parentid[b])
