@@ -27,7 +27,10 @@ from vpro_assets.rollout.policies.oracle.motion import Actions
 from vpro_assets.rollout.policies.oracle.world import World
 
 TOPPLE_SHARE = 0.5  # of the tilt at which the object's box tips over on its narrower side
-TURN_STEPS = 40
+# The turn ends once it settles short of motion.TURN_TOL (it shrank less than TURN_STALL_RAD in so
+# many steps): libero_spatial-04's deformed bowl (multipeak-s1), its arm's elbow at its limit, came to
+# 3.4 degrees in 25 steps and swayed there until TURN_STEPS ran out.
+TURN_STEPS, TURN_STALL_STEPS = 40, 5
 
 
 def correction(world: World, held: str, taken: np.ndarray) -> Rotation:
@@ -51,8 +54,9 @@ def max_tilt(size: np.ndarray) -> float:
 
 def upright(world: World, held: str, taken: np.ndarray, limit: float) -> Actions:
     """Turn the hand where it is until the held object stands as it was taken (`taken`: its
-    orientation then), when it has tilted more than `limit` (`max_tilt`) in the fingers."""
+    orientation then), when it has tilted more than `limit` (`max_tilt`) in the fingers; as near
+    as the turn comes before it stalls (TURN_STALL_STEPS)."""
     turn = correction(world, held, taken)
     if turn.magnitude() < limit:
         return
-    yield from motion.turn_in_place(world, turn.as_matrix() @ world.eef_mat(), TURN_STEPS)
+    yield from motion.turn_in_place(world, turn.as_matrix() @ world.eef_mat(), TURN_STEPS, stall_steps=TURN_STALL_STEPS)

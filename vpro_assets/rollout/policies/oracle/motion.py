@@ -31,6 +31,7 @@ TURN_TOL = 0.05  # rad
 WAY_TOL = 0.3  # rad: a way point of a turn (`turn_about`) is passed this close (on the move)
 TURN_IN_PLACE_SPEED = 0.5  # of the action's full turn (`turn_in_place`)
 STALL_M = 0.003  # a move has stalled when the grip site moved less than this in its stall steps
+TURN_STALL_RAD = np.radians(1.0)  # a turn has stalled when what it still has to go shrank less than this
 UP = np.array([0.0, 0.0, 1.0])
 DOWN = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # grip site pointing down, fingers along world y
 
@@ -120,14 +121,27 @@ def gripper(world: World, grip: float, steps: int = GRIPPER_STEPS, orient: np.nd
 
 
 def turn_in_place(
-    world: World, goal: np.ndarray, steps: int, at: np.ndarray | None = None, speed: float = 1.0, tol: float = TURN_TOL
+    world: World,
+    goal: np.ndarray,
+    steps: int,
+    at: np.ndarray | None = None,
+    speed: float = 1.0,
+    tol: float = TURN_TOL,
+    stall_steps: int | None = None,
 ) -> Actions:
     """Turn the hand to `goal` holding what it holds, at TURN_IN_PLACE_SPEED of the action's full
     turn (at most `steps` actions): a held object turned faster draws the grip site off its place.
-    The grip site stays where it is, or moves toward `at` at `speed` of the action's full move."""
+    The grip site stays where it is, or moves toward `at` at `speed` of the action's full move. With
+    `stall_steps`, it gives up once the turn still to go shrank less than TURN_STALL_RAD in that
+    many steps (it has settled short of `tol`)."""
     hold = world.eef() if at is None else at
+    errors: list[float] = []
     for _ in range(steps):
-        if np.linalg.norm(rotation_error(world.eef_mat(), goal)) < tol:
+        error = float(np.linalg.norm(rotation_error(world.eef_mat(), goal)))
+        if error < tol:
+            return
+        errors.append(error)
+        if stall_steps and len(errors) > stall_steps and errors[-1 - stall_steps] - error < TURN_STALL_RAD:
             return
         action = action_to(world, hold, world.hold_grip, goal, speed=speed)
         action[3:6] *= TURN_IN_PLACE_SPEED

@@ -47,6 +47,9 @@ CARRY_STALL_STEPS = 6  # a carry move has stalled (the arm stretched to its reac
 AWAY_GAP_M = 0.005  # an obstacle this far beside the carried object that the path leads away from is passed
 CARRY_DESCENT_M = 0.02  # the carry comes down on its way when that saves at least this much lowering
 CARRY_WAY_TOL_M = 0.02  # passing the way point where it may start coming down
+CARRY_END_TOL_M = 0.01  # over the destination
+# A carry that ends at most this much nearer the shoulder than a wrong-bent elbow reaches is not unbent first.
+UNBEND_SLACK_M = 0.03
 DRAWER_FRONT_M = 0.03  # a drawer's front panel lies this far behind its handle
 GAP_CHUNK = 8  # `_passed` measures the gaps along the way this many shifts at a time
 STALL_STEPS, STALL_DROP_M = 8, 0.002  # lowering has stalled when the hand sank less than this in so many steps
@@ -211,11 +214,13 @@ def carry(
     low = int(np.argmax(rest <= rest[-1] + 1e-9))  # the first point past everything higher than the end's
     orient = world.eef_mat() if orient is None else orient
     # An elbow past straight brings the wrist no nearer the shoulder than `wrong_way_shortest`: unbent
-    # first where the carry ends nearer (into libero_10-03's drawer from 0.8 m out; not onto
-    # libero_spatial-04's far plate, where unbending out of the drawer cost 40 steps). Rising where it
-    # stands, far out, the wrist would pass the arm's reach: it rises toward the base.
+    # first where the carry ends more than UNBEND_SLACK_M nearer (into libero_10-03's drawer from 0.8 m
+    # out, 0.11 m nearer; not onto libero_spatial-04's far plate, at most 2 mm nearer, where the arm,
+    # straightened 1.2 m high out of the drawer, bent the wrong way again as the carry set off: 37
+    # steps for nothing). Rising where it stands, far out, the wrist would pass the arm's reach: it
+    # rises toward the base.
     end = np.array([*(xy + world.eef()[:2] - world.body_pos(held)[:2]), z])
-    if reach.past_straight(world) > 0 and reach.stretch(world, end) < reach.wrong_way_shortest(world):
+    if reach.past_straight(world) > 0 and reach.stretch(world, end) < reach.wrong_way_shortest(world) - UNBEND_SLACK_M:
         yield from reach.unbend(world, world.hold_grip, world.eef_mat())
     yield from _carry_leg(world, reach.within(world, [*world.eef()[:2], z]), orient, 0.015)
     z = min(z, world.eef()[2] + 0.015)  # stalled below it: carry on at the height reached
@@ -227,11 +232,16 @@ def carry(
             offset = world.eef()[:2] - world.body_pos(held)[:2]
             yield from _carry_leg(world, [*(way + offset), z], orient, CARRY_WAY_TOL_M)
         z = end_z
+    aimed: np.ndarray | None = None
     for _ in range(3):  # re-aim as the held object swings
         check_held(world, held, hang)
         offset = world.eef()[:2] - world.body_pos(held)[:2]
-        yield from _carry_leg(world, [*(xy + offset), z], orient, 0.01)
-        z = min(z, world.eef()[2] + 0.01)
+        goal = np.array([*(xy + offset), z])
+        if aimed is not None and np.linalg.norm(goal - aimed) < CARRY_END_TOL_M:
+            break  # the last leg stalled short of a goal that has not moved: the same leg would again
+        yield from _carry_leg(world, goal, orient, CARRY_END_TOL_M)
+        aimed = goal if np.linalg.norm(goal - world.eef()) >= CARRY_END_TOL_M else None
+        z = min(z, world.eef()[2] + CARRY_END_TOL_M)
     check_held(world, held, hang)
 
 
