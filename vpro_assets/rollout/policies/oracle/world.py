@@ -268,18 +268,15 @@ class World:
         """Top-level body names (`..._main` stripped) of everything in contact with the instance,
         'gripper' for the gripper."""
         mine = set(self.entity(instance).geoms)
-        return {"gripper" if g in self.gripper_geoms else self._root_name(g) for g in self._touching_geoms(mine)}
+        return {"gripper" if g in self.gripper_geoms else self.root_name(g) for g in self._touching_geoms(mine)}
 
     def robot_touches(self, geoms: Collection[int]) -> bool:
         """Whether the robot (arm, gripper or mount) touches any of `geoms`."""
-        return any(self._root_name(g).startswith(ROBOT_PREFIXES) for g in self._touching_geoms(geoms))
+        return any(self.root_name(g).startswith(ROBOT_PREFIXES) for g in self._touching_geoms(geoms))
 
     def root_name(self, geom: int) -> str:
-        """The top-level body name of a geom (`..._main` stripped)."""
-        return self._root_name(geom)
-
-    def _root_name(self, geom: int) -> str:
-        # of the model only: found once per geom (contacts ask for it at every step)
+        """The top-level body name of a geom (`..._main` stripped); of the model only, so found once
+        per geom (contacts ask for it at every step)."""
         if geom not in self._root_names:
             self._root_names[geom] = self._find_root_name(geom)
         return self._root_names[geom]
@@ -335,7 +332,7 @@ class World:
         for g in range(self.m.ngeom):
             if g in skip or not (self.m.geom_contype[g] or self.m.geom_conaffinity[g]):
                 continue
-            name = self._root_name(g)
+            name = self.root_name(g)
             if not name or name.startswith(ROBOT_PREFIXES) or name in ("world", "table", "floor") or "table" in name:
                 continue
             if self.m.geom_bodyid[g] == 0:
