@@ -52,8 +52,9 @@ def fit_turn(world: World, held: str, region: str) -> tuple[np.ndarray, np.ndarr
     if not fits:
         return lean(world, held, half, center, now, spin)
     turn = min(fits, key=lambda f: f[0])[1]
-    # The fingers' axis turned so; the yaw nearest now or half a turn away, as the wrist allows.
-    orient = grasp_orientation(world, turn @ world.finger_axis())
+    # The fingers' axis turned so; the yaw nearest now or half a turn away, as the wrist allows
+    # over the box.
+    orient = grasp_orientation(world, turn @ world.finger_axis(), at=center)
     pts, body = turned(world, held, orient)
     xy = center - (pts.min(0) + pts.max(0))[:2] / 2 + body[:2]
     return orient, np.clip(xy, center - half + FIT_MARGIN_M, center + half - FIT_MARGIN_M)
@@ -71,7 +72,7 @@ def lean(
     Of the two ends, the one that keeps the body position nearer the box's middle goes in."""
     scores = [overflow(turned(world, held, r @ now)[0], half) for r in spin]
     turn = spin[int(np.argmin(scores))]
-    orient = grasp_orientation(world, turn @ world.finger_axis())
+    orient = grasp_orientation(world, turn @ world.finger_axis(), at=center)
     pts, body = turned(world, held, orient)
     over = (pts[:, :2].max(0) - pts[:, :2].min(0)) - 2 * half
     a = int(np.argmax(over))

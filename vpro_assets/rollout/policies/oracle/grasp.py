@@ -64,7 +64,10 @@ MAX_SIDE_SLOPE = 0.5
 SLOPED_SQUEEZE_M = 0.016
 # A pinch of an object longer than LONG_M across the fingers where the open hand stops more than
 # BLOCKED_M over it is moved along the object in SHIFT_STEP_M steps, END_M inside its ends (`along_free`).
-LONG_M, BLOCKED_M, SHIFT_STEP_M, END_M = 0.10, 0.01, 0.01, 0.03
+# LONG_M sits between libero_goal's lying bottles (15.8 cm) and libero_object's cream cheese box
+# (10.0 cm): at 10 cm the turn a push gave the box decided whether its pinch moved, and on the twisted
+# box (twist-s3) a pinch moved 2 cm off its middle, where its section has turned, slipped (5 of 10).
+LONG_M, BLOCKED_M, SHIFT_STEP_M, END_M = 0.12, 0.01, 0.01, 0.03
 
 
 @dataclass(frozen=True)
@@ -168,6 +171,12 @@ def sloped_close(hulls: list[np.ndarray], grasp: Grasp) -> Grasp:
     k = int(np.argmax(np.abs(dirs @ grasp.axis)))
     tapered = bool(np.all(top < bottom)) and (bottom[k] - top[k]) / 2 / (high - low) > MAX_SIDE_SLOPE
     return replace(grasp, close_to=grasp.width - SLOPED_SQUEEZE_M) if tapered else grasp
+
+
+def bearing(xy: np.ndarray) -> float:
+    """The direction (rad) of `xy` seen from the arm's base: what its first joint turns to."""
+    off = np.asarray(xy, dtype=float)[:2] - ROBOT_BASE_XY
+    return float(np.arctan2(off[1], off[0]))
 
 
 def within_reach(point: np.ndarray) -> np.ndarray:
@@ -366,17 +375,26 @@ def sided_yaw(world: World, left: np.ndarray) -> float | None:
     return yaw if world.wrist_room((yaw - now) * wrist) >= 0 else None
 
 
-def grasp_orientation(world: World, axis: np.ndarray, sided: bool = False) -> np.ndarray:
+def grasp_orientation(world: World, axis: np.ndarray, sided: bool = False, at: np.ndarray | None = None) -> np.ndarray:
     """Gripper pointing down with the fingers closing along `axis`: the yaw nearest the current, or
     the other (half a turn away) when the nearer would turn the wrist past its limit. `sided`: the
-    left finger toward `axis` (`sided_yaw`), where the wrist can turn so."""
+    left finger toward `axis` (`sided_yaw`), where the wrist can turn so. `at`: where (xy) the hand
+    will hold that yaw; the arm's base joint turns on the way there and the wrist takes the turn
+    back (libero_object-09's lying carton, turned 42 degrees for the basket from the wrist 0.77 rad
+    short of its limit, carried 34 cm across the base's bearing: the wrist hit its limit half way,
+    the carry stalled and the carton was let go 18 cm short)."""
     yaw_sided = sided_yaw(world, axis) if sided else None
     if yaw_sided is not None:
         return motion.down_with_yaw(yaw_sided)
     yaw = float(np.arctan2(axis[1], axis[0]))
     now = motion.yaw_of(world.eef_mat())
     yaw += np.pi * np.round((now - yaw) / np.pi)
+    base_turn = 0.0 if at is None else bearing(at) - bearing(world.eef()[:2])
     wrist = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per radian of yaw
-    if world.wrist_room((yaw - now) * wrist) < 0:
-        yaw = max((yaw, yaw - np.pi * np.sign(yaw - now)), key=lambda y: world.wrist_room((y - now) * wrist))
+
+    def room(y: float) -> float:
+        return world.wrist_room((y - now - base_turn) * wrist)
+
+    if room(yaw) < 0:
+        yaw = max((yaw, yaw - np.pi * np.sign(yaw - now)), key=room)
     return motion.down_with_yaw(yaw)
