@@ -106,6 +106,22 @@ def test_resume_asks_only_the_cases_left_to_run_to_be_built(tmp_path, monkeypatc
         assert len(store.episodes(RUN_ID)) == 2
 
 
+def test_replaying_failures_of_an_unbuilt_scene_stops_once_naming_the_build(tmp_path, monkeypatch):
+    """Writing the certificate where the scenes are not built (another VPRO_OUT than the run's) stops
+    before any replay, naming the case and the build, rather than record "not built" as the reason
+    of every failed trial; nothing is written."""
+    monkeypatch.setenv("VPRO_OUT", str(tmp_path / "empty-out"))
+    case = next(c for c in CATALOG["cases"] if c["level"] == "scene")
+    run_certify(
+        [case], tmp_path / "c.sqlite", 2, True, "inline", 1, None, [case["id"]],
+        carry_from=(CATALOG, _committed(case["id"], [0, 1], [0])),
+    )  # fmt: skip
+    outputs = _outputs(tmp_path)
+    with pytest.raises(VProError, match=rf"not built: {case['id']}; build them first"):
+        write_outputs(paths.catalog_path(), tmp_path / "c.sqlite", outputs)
+    assert not outputs.certificate.exists() and not (outputs.pictures / "replays.json").exists()
+
+
 def test_stratified_sample_has_one_task_per_suite_and_one_case_per_scene_setting():
     sample = stratified_sample(CATALOG)
     normal = [c for c in sample if not c.get("setting")]

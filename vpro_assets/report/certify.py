@@ -244,38 +244,41 @@ def explain_failures(
     path = _replays_path(pictures)
     cache: dict[str, dict] = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
     out: dict[tuple[str, int], dict] = {}
+    todo: list[tuple[str, int, bool]] = []  # (case, trial, with picture) to replay
     for cid, r in results_map.items():
         for i, t in enumerate(sorted(r.failed)[:MAX_REPLAYS]):
-            key = f"{cid}#{t}"
+            cached = cache.get(f"{cid}#{t}")
+            if cached is None or cached["final_state"] != r.final_state[t]:
+                cached = None
             want_picture = i == 0
-            cached = cache.get(key)
-            if cached is not None and cached["final_state"] == r.final_state[t]:
-                pic = cached.get("picture")
-                if not want_picture or (pic and (pictures / pic).is_file()):
-                    out[(cid, t)] = cached
-                    continue
-            if not replays:
-                if cached is not None and cached["final_state"] == r.final_state[t]:
-                    out[(cid, t)] = cached
-                continue
-            log.info("replaying %s trial %d%s", cid, t, " (rendered)" if want_picture else "")
-            try:
-                rep = replay(r.case, t, settings, render=want_picture, resolution=PICTURE_RESOLUTION)
-                entry: dict = {
-                    "final_state": r.final_state[t],
-                    "reason": rep.reason,
-                    "reproduced": rep.final_state == r.final_state[t],
-                }
-                if not entry["reproduced"]:
-                    entry["reason"] += " (the replay ended in another state than the recorded trial)"
-                if want_picture and rep.frames:
-                    write_png(pictures / _picture_name(cid), rep.sheet(), [f"t{t} step {s}" for s in rep.frame_steps])
-                    entry["picture"] = _picture_name(cid)
-            except Exception as exc:  # a replay that raises is reported, not fatal to the document
-                entry = {"final_state": r.final_state[t], "reason": f"replay raised {type(exc).__name__}: {exc}"}
-            cache[key] = entry
-            out[(cid, t)] = entry
-            write_text_atomic(path, canonical_json(cache))
+            pic = (cached or {}).get("picture")
+            if cached is not None and (not want_picture or (pic and (pictures / pic).is_file()) or not replays):
+                out[(cid, t)] = cached
+            elif replays:
+                todo.append((cid, t, want_picture))
+    # Every replay needs its scene: stop once, naming the build, rather than record "not built" as
+    # the reason of each failed trial (a VPRO_OUT other than the one the run used).
+    check_built([results_map[cid].case for cid in dict.fromkeys(cid for cid, _, _ in todo)])
+    for cid, t, want_picture in todo:
+        r = results_map[cid]
+        log.info("replaying %s trial %d%s", cid, t, " (rendered)" if want_picture else "")
+        try:
+            rep = replay(r.case, t, settings, render=want_picture, resolution=PICTURE_RESOLUTION)
+            entry: dict = {
+                "final_state": r.final_state[t],
+                "reason": rep.reason,
+                "reproduced": rep.final_state == r.final_state[t],
+            }
+            if not entry["reproduced"]:
+                entry["reason"] += " (the replay ended in another state than the recorded trial)"
+            if want_picture and rep.frames:
+                write_png(pictures / _picture_name(cid), rep.sheet(), [f"t{t} step {s}" for s in rep.frame_steps])
+                entry["picture"] = _picture_name(cid)
+        except Exception as exc:  # a replay that raises is reported, not fatal to the document
+            entry = {"final_state": r.final_state[t], "reason": f"replay raised {type(exc).__name__}: {exc}"}
+        cache[f"{cid}#{t}"] = entry
+        out[(cid, t)] = entry
+        write_text_atomic(path, canonical_json(cache))
     return out
 
 
