@@ -248,8 +248,8 @@ def explain_failures(
     for cid, r in results_map.items():
         for i, t in enumerate(sorted(r.failed)[:MAX_REPLAYS]):
             cached = cache.get(f"{cid}#{t}")
-            if cached is None or cached["final_state"] != r.final_state[t]:
-                cached = None
+            if cached is not None and cached["final_state"] != r.final_state[t]:
+                cached = None  # a replay of another trial's end
             want_picture = i == 0
             pic = (cached or {}).get("picture")
             if cached is not None and (not want_picture or (pic and (pictures / pic).is_file()) or not replays):

@@ -371,8 +371,7 @@ def sided_yaw(world: World, left: np.ndarray) -> float | None:
     yaw = float(np.arctan2(-left[1], -left[0]))
     now = motion.yaw_of(world.eef_mat())
     yaw += 2 * np.pi * np.round((now - yaw) / (2 * np.pi))
-    wrist = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per radian of yaw
-    return yaw if world.wrist_room((yaw - now) * wrist) >= 0 else None
+    return yaw if motion.wrist_yaw_room(world, yaw - now) >= 0 else None
 
 
 def grasp_orientation(world: World, axis: np.ndarray, sided: bool = False, at: np.ndarray | None = None) -> np.ndarray:
@@ -390,10 +389,9 @@ def grasp_orientation(world: World, axis: np.ndarray, sided: bool = False, at: n
     now = motion.yaw_of(world.eef_mat())
     yaw += np.pi * np.round((now - yaw) / np.pi)
     base_turn = 0.0 if at is None else bearing(at) - bearing(world.eef()[:2])
-    wrist = float(world.d.xaxis[world.wrist_joint][2])  # the wrist's turn per radian of yaw
 
     def room(y: float) -> float:
-        return world.wrist_room((y - now - base_turn) * wrist)
+        return motion.wrist_yaw_room(world, y - now - base_turn)
 
     if room(yaw) < 0:
         yaw = max((yaw, yaw - np.pi * np.sign(yaw - now)), key=room)
